@@ -1,0 +1,177 @@
+"""The shared grid core of the DCP (chapter 4) and DCG (chapter 5).
+
+Cells are ``(x, y)`` = ``(row, column)`` with the base at ``(0, 0)`` in the
+top-left corner, as in Fig. 4.1. "Up" decreases the row, "left" decreases the
+column.
+
+Everything here is a pure function of arrays and works under ``jit``/``vmap``;
+the validating constructors (:func:`risk_map`, :func:`validate_risk_map`) run
+outside jit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import jax.numpy as jnp
+
+#: The 9 actions in the thesis' order (section 4.3).
+ACTIONS: tuple[str, ...] = (
+    "stay",
+    "up",
+    "down",
+    "left",
+    "right",
+    "up_left",
+    "up_right",
+    "down_left",
+    "down_right",
+)
+NUM_ACTIONS = len(ACTIONS)
+STAY = 0
+
+#: Row/column displacement of each action, shape ``[9, 2]``.
+DELTAS_NP = np.array(
+    [[0, 0], [-1, 0], [1, 0], [0, -1], [0, 1], [-1, -1], [-1, 1], [1, -1], [1, 1]],
+    dtype=np.int32,
+)
+DELTAS = jnp.asarray(DELTAS_NP)
+
+#: Readings of "the action that follows the shortest path" (Algorithm 8).
+SHORTEST_MOVE_RULES = ("diagonal", "order")
+
+#: Risk rings of Table 4.2, from outer (rho0) to inner (rho3).
+RISK_PRESETS: dict[str, tuple[float, float, float, float]] = {
+    "low": (0.01, 0.02, 0.04, 0.08),
+    "medium": (0.01, 0.03, 0.09, 0.27),
+    "high": (0.01, 0.04, 0.16, 0.64),
+}
+
+
+def move(pos, action, grid_size: int):
+    """Apply ``action`` to ``pos`` (``[..., 2]`` int), clipped per axis (section 4.3).
+
+    "If a_t makes the agent go out of a grid boundary, the agent stays along
+    the axis perpendicular to that boundary": each coordinate is clipped on
+    its own, so ``up_left`` from the top edge still moves left.
+    """
+    return jnp.clip(pos + DELTAS[action], 0, grid_size - 1)
+
+
+def neighbours(pos, grid_size: int):
+    """All 9 successors of ``pos``, shape ``[..., 9, 2]`` (index = action)."""
+    return jnp.clip(pos[..., None, :] + DELTAS, 0, grid_size - 1)
+
+
+def chebyshev(a, b):
+    """Chebyshev distance ``max(|dx|, |dy|)``: the number of moves on the 8-connected grid."""
+    return jnp.max(jnp.abs(a - b), axis=-1)
+
+
+def manhattan(a, b):
+    """Manhattan distance ``|dx| + |dy|`` (the text of section 4.4.2 names it for CF)."""
+    return jnp.sum(jnp.abs(a - b), axis=-1)
+
+
+def shortest_move(pos, target, grid_size: int, rule: str = "diagonal"):
+    """The action that follows a shortest (fewest-moves) path from ``pos`` to ``target``.
+
+    Algorithm 8: "Select the a that minimizes max(|x_z - x_i*|, |y_z - y_i*|)".
+    Several actions usually do; ``rule`` picks one:
+
+    * ``"diagonal"`` -- step ``sign(dx), sign(dy)``: diagonal while both axes
+      differ, which keeps the remaining path on the straight line;
+    * ``"order"`` -- the first action in the thesis' action order whose
+      successor has the smallest Chebyshev distance.
+
+    Returns ``stay`` (0) when ``pos == target``.
+    """
+    if rule == "diagonal":
+        step = jnp.sign(target - pos)
+        # Index of (step_row, step_col) in DELTAS via a 3x3 lookup table.
+        return _STEP_TO_ACTION[step[..., 0] + 1, step[..., 1] + 1]
+    if rule == "order":
+        succ = neighbours(pos, grid_size)
+        d = chebyshev(succ, target[..., None, :])
+        return jnp.argmin(d, axis=-1).astype(jnp.int32)
+    raise ValueError(f"shortest_move rule must be one of {SHORTEST_MOVE_RULES}, got {rule!r}")
+
+
+def _step_table() -> jnp.ndarray:
+    table = np.zeros((3, 3), dtype=np.int32)
+    for a, (dr, dc) in enumerate(DELTAS_NP):
+        table[dr + 1, dc + 1] = a
+    return jnp.asarray(table)
+
+
+_STEP_TO_ACTION = _step_table()
+
+
+def cell_coords(grid_size: int):
+    """``[N*N, 2]`` (row, col) of every cell in row-major order."""
+    r, c = np.divmod(np.arange(grid_size * grid_size), grid_size)
+    return jnp.asarray(np.stack([r, c], axis=-1).astype(np.int32))
+
+
+def ring_index(grid_size: int) -> np.ndarray:
+    """Concentric ring of each cell, 0 (outermost) .. 3 (innermost), shape ``[N, N]``.
+
+    For N = 8 this is exactly Fig. 4.1b: ring = distance to the nearest
+    border. For other sizes (a rule of jaxdc, the thesis only shows N = 8) the
+    border distance ``d`` in ``0..D`` with ``D = (N - 1) // 2`` is mapped to
+    ``round(3 d / D)``, so the outermost ring is always rho0 and the centre is
+    always rho3, with bands of (nearly) equal width in between. ``N = 2`` has
+    only the outer ring.
+    """
+    idx = np.arange(grid_size)
+    d = np.minimum(idx, grid_size - 1 - idx)
+    d = np.minimum(d[:, None], d[None, :])
+    depth = (grid_size - 1) // 2
+    if depth == 0:
+        return np.zeros((grid_size, grid_size), dtype=np.int32)
+    return np.floor(3.0 * d / depth + 0.5).astype(np.int32)
+
+
+def risk_map(preset: str, grid_size: int = 8) -> np.ndarray:
+    """A preset risk map of Table 4.2 (``low``, ``medium``, ``high``); base risk 0."""
+    if preset not in RISK_PRESETS:
+        raise ValueError(f"risk preset must be one of {sorted(RISK_PRESETS)}, got {preset!r}")
+    check_grid_size(grid_size)
+    rho = np.asarray(RISK_PRESETS[preset], dtype=np.float32)[ring_index(grid_size)]
+    rho[0, 0] = 0.0
+    return rho
+
+
+def check_grid_size(grid_size) -> int:
+    """Validate a grid size (an int >= 2)."""
+    if isinstance(grid_size, bool) or not isinstance(grid_size, (int, np.integer)):
+        raise TypeError(f"grid_size must be an int >= 2, got {grid_size!r}")
+    if grid_size < 2:
+        raise ValueError(f"grid_size must be >= 2, got {grid_size}")
+    return int(grid_size)
+
+
+def validate_risk_map(risk, grid_size: int | None = None) -> np.ndarray:
+    """Check a user risk map: a square ``N x N`` array of finite values in ``[0, 1]`` with base risk 0."""
+    try:
+        arr = np.asarray(risk, dtype=np.float32)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"risk map must be a numeric N x N array: {e}") from None
+    if arr.ndim != 2 or arr.shape[0] != arr.shape[1]:
+        raise ValueError(f"risk map must be a square N x N array, got shape {arr.shape}")
+    check_grid_size(arr.shape[0])
+    if grid_size is not None and arr.shape[0] != grid_size:
+        raise ValueError(f"risk map is {arr.shape[0]}x{arr.shape[0]} but grid_size is {grid_size}")
+    if not np.all(np.isfinite(arr)) or arr.min() < 0 or arr.max() > 1:
+        raise ValueError(
+            f"risk map values must lie in [0, 1], got min {np.nanmin(arr):.4g}, max {np.nanmax(arr):.4g}"
+        )
+    if arr[0, 0] != 0:
+        raise ValueError(f"the base cell (0, 0) must have risk 0, got {arr[0, 0]:.4g}")
+    return arr
+
+
+def as_risk_map(risk, grid_size: int = 8) -> np.ndarray:
+    """A preset name or a user array -> a validated ``[N, N]`` float32 risk map."""
+    if isinstance(risk, str):
+        return risk_map(risk, grid_size)
+    return validate_risk_map(risk, grid_size)
