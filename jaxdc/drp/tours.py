@@ -1,0 +1,126 @@
+"""The six tour builders of section 3.4.2 (Algorithm 2, Eqs. 3.2-3.8) as array programs.
+
+Every builder takes ``(D, beta, psi, mask)`` for one cluster:
+
+* ``D``: ``[K+1, K+1]`` distances with the base as index 0;
+* ``beta``: ``[K+1]`` rewards with ``beta[0] = alpha``;
+* ``mask``: ``[K+1]`` bool, the nodes of the cluster (``mask[0]`` is ignored).
+
+It visits *all* nodes of the cluster and returns ``(tour, reward)``: the
+tour as ``[K]`` indices into ``D`` in visiting order, padded with ``-1``,
+and its reward (Eq. 3.1 for one tour; 0 for an empty cluster). The loop over
+insertions is a ``lax.while_loop``; each step scores every candidate (and,
+for GI, every insertion position) at once. Builders are pure functions of
+arrays, so they ``jit`` and ``vmap`` over graphs or clusters.
+
+The append builders NG, OSA, TL, GML and LPG score with the shared
+:func:`jaxdc.core.tour_criteria.append_scores` (Eqs. 3.2-3.7) using
+``p_next = psi**D[end]``, ``p_pair = psi**D`` and ``p_end = P_t(end)``.
+GI (Eq. 3.8) inserts anywhere in the cyclic partial tour (with
+``beta(0) = alpha``) and is DRP-only. Ties go to the lowest node index
+(and, for GI, then to the earliest position).
+"""
+
+from __future__ import annotations
+
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+
+from jaxdc.core.tour_criteria import APPEND_CRITERIA, append_scores
+from jaxdc.drp.world import tour_reward
+
+#: Builders in the thesis' order (Table 3.1).
+BUILDERS = APPEND_CRITERIA + ("gi",)
+
+
+def _append_tour(criterion, D, beta, psi, mask):
+    """Algorithm 2 with an append criterion: always insert at position ``|t|``."""
+    n = D.shape[0] - 1
+    P = psi ** D
+    mask = jnp.asarray(mask, bool).at[0].set(False)
+
+    def cond(st):
+        mask, _, _, _, s = st
+        return (s < n) & mask.any()
+
+    def body(st):
+        mask, end, p_end, tour, s = st
+        scores = append_scores(criterion, P[end], P, beta, mask, p_end)
+        u = jnp.argmax(scores)
+        return mask.at[u].set(False), u, p_end * P[end, u], tour.at[s].set(u), s + 1
+
+    init = (mask, jnp.int32(0), jnp.float32(1.0), jnp.full((n,), -1, jnp.int32), jnp.int32(0))
+    _, _, _, tour, _ = jax.lax.while_loop(cond, body, init)
+    return tour
+
+
+def gi_scores(D, beta, psi, cycle, m, mask):
+    """Eq. 3.8 for every unassigned ``u`` and every position ``i`` of the cyclic partial tour.
+
+    ``cycle[0] = 0`` is the base and ``cycle[1..m]`` the partial tour. Inserting
+    ``u`` after position ``i`` (between ``a = cycle[i]`` and its successor ``b``,
+    the base after the last node) gains ``psi^(D_t(a) + D(a, u)) beta(u)`` and
+    discounts everything after ``a``, the return's ``alpha`` included, by
+    ``psi^(D(a, u) + D(u, b) - D(a, b))``. Returns ``[positions, nodes]`` scores,
+    ``-inf`` where invalid.
+    """
+    k = jnp.arange(cycle.shape[0])
+    inside = k <= m
+    nxt = jnp.where(k < m, jnp.roll(cycle, -1), 0)
+    edge = jnp.where(inside, D[cycle, nxt], 0.0)
+    reach = jnp.cumsum(edge) - edge  # D_t(0, cycle[k])
+    collected = jnp.where((k >= 1) & inside, psi ** reach * beta[cycle], 0.0)
+    home = psi ** edge.sum() * beta[0]
+    after = collected.sum() - jnp.cumsum(collected) + home  # value of everything after position i
+    d_au = D[cycle]  # [i, u]
+    extra = d_au + D[:, nxt].T - D[cycle, nxt][:, None]
+    score = psi ** (reach[:, None] + d_au) * beta[None, :] - (1.0 - psi ** extra) * after[:, None]
+    return jnp.where(inside[:, None] & mask[None, :], score, -jnp.inf)
+
+
+def _gi_tour(D, beta, psi, mask):
+    """Greedy Insertion (GI, Eq. 3.8): the best node at the best position, cyclic tour."""
+    n = D.shape[0] - 1
+    mask = jnp.asarray(mask, bool).at[0].set(False)
+    k = jnp.arange(n + 1)
+
+    def cond(st):
+        mask, _, m = st
+        return (m < n) & mask.any()
+
+    def body(st):
+        mask, cycle, m = st
+        score = gi_scores(D, beta, psi, cycle, m, mask)
+        best = jnp.argmax(score.T)  # lowest node first, then earliest position
+        u, i = best // (n + 1), best % (n + 1)
+        shifted = jnp.roll(cycle, 1)
+        cycle = jnp.where(k <= i, cycle, jnp.where(k == i + 1, u, shifted))
+        return mask.at[u].set(False), cycle.astype(jnp.int32), m + 1
+
+    _, cycle, m = jax.lax.while_loop(cond, body, (mask, jnp.zeros((n + 1,), jnp.int32), jnp.int32(0)))
+    return jnp.where(k[1:] <= m, cycle[1:], -1)
+
+
+def build_tour(criterion: str, D, beta, psi, mask):
+    """``BuildTour_K`` (Algorithm 2) for ``criterion`` in :data:`BUILDERS`; returns ``(tour, reward)``."""
+    if criterion == "gi":
+        tour = _gi_tour(D, beta, psi, mask)
+    elif criterion in APPEND_CRITERIA:
+        tour = _append_tour(criterion, D, beta, psi, mask)
+    else:
+        raise ValueError(f"builder must be one of {BUILDERS}, got {criterion!r}")
+    return tour, tour_reward(D, beta, psi, tour)
+
+
+@partial(jax.jit, static_argnames="criterion")
+def build_tour_jit(criterion, D, beta, psi, mask):
+    """Jitted :func:`build_tour`."""
+    return build_tour(criterion, D, beta, psi, mask)
+
+
+@partial(jax.jit, static_argnames="criterion")
+def build_tours_batch(criterion, D, beta, psi, masks):
+    """:func:`build_tour` vmapped over a batch: ``D [B, K+1, K+1]``, ``beta [B, K+1]``, ``psi [B]``, ``masks [B, K+1]``."""
+    return jax.vmap(partial(build_tour, criterion))(D, beta, psi, masks)
