@@ -1,0 +1,102 @@
+"""NC (Algorithm 1 with a builder, Algorithm 5) and PGC (Algorithms 3-4) against the transcription."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import drp_reference as ref
+from jaxdc.drp import clustering as cl
+from jaxdc.drp import world
+
+N = 7
+ALPHAS = [0.0, 10.0, 25.0, 40.0]
+
+
+def batch(seeds, rewards="1-9"):
+    gs = [world.generate(s, n=N, size=40, rewards=rewards) for s in seeds]
+    D = jnp.stack([world.distances(g.base, g.nodes) for g in gs])
+    beta = jnp.stack([world.node_values(g.rewards, 0.0) for g in gs])
+    return D, beta, jnp.full((len(gs),), 0.99, jnp.float32)
+
+
+@pytest.mark.parametrize("builder", ["ng", "tl", "gi"])
+def test_nc_matches_transcription_and_never_merges_on_nonpositive_gain(builder):
+    seeds = [0, 1, 2]
+    D, beta, psi = batch(seeds)
+    gidx = np.repeat(np.arange(len(seeds)), len(ALPHAS))
+    alpha = np.tile(ALPHAS, len(seeds))
+    member = cl.nc(builder, D, beta, psi, gidx, alpha)
+    for i, (g, a) in enumerate(zip(gidx, alpha)):
+        Dl = np.asarray(D[g], float).tolist()
+        bl = [a] + np.asarray(beta[g], float).tolist()[1:]
+        R = lambda C: ref.tour_reward(Dl, bl, 0.99, ref.build_tour(builder, Dl, bl, 0.99, C))
+        got = [list(map(int, c)) for c in cl.clusters_from_member(member[i])]
+        assert got == ref.nc(Dl, bl, 0.99, R), (builder, g, a)
+        assert sorted(v for c in got for v in c) == list(range(1, N + 1))
+        # Final state: no pair has a positive merge gain (the loop stopped correctly) ...
+        for x in range(len(got)):
+            for y in range(x + 1, len(got)):
+                assert R(got[x] + got[y]) - R(got[x]) - R(got[y]) <= 1e-4
+        # ... and with alpha = 0 every merge gain is <= 0 (triangle inequality): all singletons.
+        if a == 0:
+            assert len(got) == N
+
+
+def test_pgc_matches_transcription():
+    for seed in range(4):
+        for a in ALPHAS:
+            g = world.generate(seed, n=8, size=40, rewards="4-6", alpha=a)
+            D, beta, _ = world.arrays(g)
+            Dl, bl = np.asarray(D, float).tolist(), np.asarray(beta, float).tolist()
+            clusters, records, _ = cl.pgc(np.asarray(D, float), np.asarray(beta, float), 0.99, a)
+            want = ref.pgc(Dl, bl, 0.99, a)
+            assert clusters == [r["C"] for r in want]
+            for (e, l, gg, c), r in zip(records, want):
+                assert (e, l, gg, c) == pytest.approx((r["e"], r["l"], r["g"], r["c"]))
+
+
+def test_pgc_kmst_bookkeeping_against_direct_computation():
+    g = world.generate(3, n=30, size=60, alpha=30.0)
+    D, beta, _ = world.arrays(g)
+    Dn = np.asarray(D, float)
+    clusters, records, edges = cl.pgc(Dn, np.asarray(beta, float), 0.99, 30.0)
+    assert len(clusters) < 30  # something merged
+    for C, (e, l, gain, c) in zip(clusters, records):
+        mine = [(u, v) for u, v in edges if u in C]
+        assert all(v in C for _, v in mine)
+        # a spanning tree of C: |C| - 1 edges, connected
+        assert len(mine) == len(C) - 1
+        seen, todo = {C[0]}, [C[0]]
+        while todo:
+            x = todo.pop()
+            for u, v in mine:
+                for a, b in ((u, v), (v, u)):
+                    if a == x and b not in seen:
+                        seen.add(b)
+                        todo.append(b)
+        assert seen == set(C)
+        # l is the total edge length of that tree, the entry is the member closest to the base
+        assert l == pytest.approx(sum(Dn[u, v] for u, v in mine))
+        assert e == C[int(np.argmin(Dn[0, C]))]
+        if len(C) == 1:
+            assert gain == pytest.approx(0.99 ** Dn[0, e] * float(beta[e]))
+            assert c == pytest.approx((1 - 0.99 ** (2 * Dn[0, e])) * 30.0)
+
+
+def test_pgc_merge_of_two_singletons_is_the_exact_two_node_tour():
+    g = world.generate(2, n=2, size=30, alpha=12.0)
+    D, beta, _ = world.arrays(g)
+    clusters, records, _ = cl.pgc(np.asarray(D, float), np.asarray(beta, float), 0.99, 12.0)
+    Dl, bl = np.asarray(D, float).tolist(), np.asarray(beta, float).tolist()
+    if len(clusters) == 1:
+        e, l, gain, c = records[0]
+        other = 3 - e
+        assert gain - c == pytest.approx(ref.tour_reward(Dl, bl, 0.99, [e, other]), rel=1e-6)
+
+
+def test_plan_tours_drops_unprofitable_robots():
+    D, beta, psi = batch([0])
+    res = cl.plan_tours("ng", D, beta, psi, np.array([0, 0]), np.array([0.0, 500.0]),
+                        [[[v] for v in range(1, N + 1)]] * 2)
+    assert len(res[0][1]) == N and res[0][0] > 0
+    assert res[1] == (0.0, [])
