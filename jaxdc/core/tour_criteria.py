@@ -30,13 +30,23 @@ import jax.numpy as jnp
 APPEND_CRITERIA = ("ng", "osa", "tl", "gml", "lpg")
 
 
-def _gain_and_loss(p_next, p_pair, beta, mask, p_end):
-    gain = p_end * p_next * beta  # g(u), Eq. 3.2
-    # delta[u, v] = g(v) - g_after_u(v), Eq. 3.4
+def _pairwise(p_next, p_pair, beta, mask, p_end):
+    """``after[u, v]``: marginal reward of ``v`` appended after ``u``; ``other``: valid pairs u != v."""
     after = p_end * p_next[:, None] * p_pair * beta[None, :]
-    delta = gain[None, :] - after
     other = mask[None, :] & mask[:, None] & ~jnp.eye(mask.shape[0], dtype=bool)
-    return gain, after, delta, other
+    return after, other
+
+
+def total_loss(p_next, p_pair, beta, mask, p_end=1.0):
+    """Eq. 3.5, ``sum_{v != u} delta(u, v)``, as a matrix-vector product (no ``[K, K]`` temporary).
+
+    ``sum_v g(v) - g(u) - p_end p_next[u] (sum_v p_pair[u, v] beta[v] - p_pair[u, u] beta[u])``
+    over unassigned ``v``; batched over states this is one matrix product.
+    """
+    b = jnp.where(mask, beta, 0.0)
+    gain = p_end * p_next * b
+    via_u = p_pair @ b - jnp.diagonal(p_pair) * b
+    return (jnp.sum(gain) - gain) - p_end * p_next * via_u
 
 
 def append_scores(
@@ -66,20 +76,23 @@ def append_scores(
       ``[K]`` scores, ``-inf`` where ``mask`` is false.
     """
     mask = jnp.asarray(mask, dtype=bool)
-    gain, after, delta, other = _gain_and_loss(p_next, p_pair, beta, mask, p_end)
+    gain = p_end * p_next * beta  # g(u), Eq. 3.2
     if criterion == "ng":
         score = gain
     elif criterion == "osa":
         # max over v != u of g(u) + p(u) p(u, v) beta(v); with no other v, just g(u).
+        after, other = _pairwise(p_next, p_pair, beta, mask, p_end)
         two = jnp.where(other, after, -jnp.inf).max(axis=1)
         score = gain + jnp.where(jnp.isfinite(two), two, 0.0)
     elif criterion == "tl":
-        score = -jnp.where(other, delta, 0.0).sum(axis=1)
+        score = -total_loss(p_next, p_pair, beta, mask, p_end)
     elif criterion == "gml":
+        after, other = _pairwise(p_next, p_pair, beta, mask, p_end)
+        delta = gain[None, :] - after  # Eq. 3.4
         min_loss = jnp.where(other, delta, jnp.inf).min(axis=1)
         score = gain - jnp.where(jnp.isfinite(min_loss), min_loss, 0.0)
     elif criterion == "lpg":
-        total = lpg_init + jnp.where(other, delta, 0.0).sum(axis=1)
+        total = lpg_init + total_loss(p_next, p_pair, beta, mask, p_end)
         # A candidate that cannot be reached (zero gain) is the worst valid choice;
         # clamping keeps every valid score above the -inf of masked candidates.
         ratio = jnp.where(gain > 0, total / jnp.where(gain > 0, gain, 1.0), jnp.inf)

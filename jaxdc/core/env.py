@@ -1,0 +1,88 @@
+"""The functional environment base shared by the DCP and the DCG (gymnax style).
+
+A subclass writes three pure functions of arrays:
+
+* ``reset_env(key, params) -> (obs, state)``
+* ``step_env(key, state, action, params) -> (obs, state, reward, terminated, truncated, info)``
+* ``observe(state, params) -> obs``
+
+and the base class adds auto-reset: :meth:`Environment.step` resets an
+environment whose episode ended, returns the *first* observation of the new
+episode, and keeps the last observation of the finished one in
+``info["final_observation"]``. ``terminated`` (a terminal state of the MDP)
+and ``truncated`` (the step cap) are kept apart, as gymnasium does.
+
+Static configuration (grid size, the thesis' ambiguity choices) belongs to
+the constructor and is validated there; numeric settings that may differ
+within one batch (risk maps, energies, the step cap) are ``EnvParams``
+leaves, so ``jax.vmap`` can map over them.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Generic, TypeVar
+
+import jax
+import jax.numpy as jnp
+
+S = TypeVar("S")
+P = TypeVar("P")
+
+
+class Environment(Generic[S, P]):
+    """Base of the jaxdc environments: pure, jittable and vmappable."""
+
+    @property
+    def default_params(self) -> P:
+        raise NotImplementedError
+
+    @property
+    def num_actions(self) -> int:
+        raise NotImplementedError
+
+    def observation_shape(self, params: P) -> tuple[int, ...]:
+        raise NotImplementedError
+
+    # -- to be written by subclasses -------------------------------------------------
+    def reset_env(self, key, params: P):
+        raise NotImplementedError
+
+    def step_env(self, key, state: S, action, params: P):
+        raise NotImplementedError
+
+    def observe(self, state: S, params: P):
+        raise NotImplementedError
+
+    # -- public API ---------------------------------------------------------------------
+    def reset(self, key, params: P | None = None):
+        """Start an episode: ``(obs, state)``."""
+        if params is None:
+            params = self.default_params
+        return self.reset_env(key, params)
+
+    def step(self, key, state: S, action, params: P | None = None):
+        """One transition with auto-reset.
+
+        Returns ``(obs, state, reward, terminated, truncated, info)``. When the
+        episode ends, ``obs``/``state`` are those of a fresh episode and
+        ``info["final_observation"]`` holds the last observation of the old one
+        (it equals ``obs`` otherwise).
+        """
+        if params is None:
+            params = self.default_params
+        key_step, key_reset = jax.random.split(key)
+        obs_st, state_st, reward, terminated, truncated, info = self.step_env(
+            key_step, state, action, params
+        )
+        obs_re, state_re = self.reset_env(key_reset, params)
+        done = jnp.logical_or(terminated, truncated)
+        state = tree_select(done, state_re, state_st)
+        obs = jnp.where(done, obs_re, obs_st)
+        info = dict(info)
+        info["final_observation"] = obs_st
+        return obs, state, reward, terminated, truncated, info
+
+
+def tree_select(pred, on_true: Any, on_false: Any):
+    """``jnp.where(pred, a, b)`` leaf by leaf over two pytrees of the same structure."""
+    return jax.tree_util.tree_map(lambda a, b: jnp.where(pred, a, b), on_true, on_false)

@@ -1,0 +1,260 @@
+"""The Data-collection Problem (DCP), thesis section 4.3.
+
+An ``N x N`` grid MDP: per-cell risk, items of unit rewards dropped
+multinomially, an energy budget that refills in the base at ``(0, 0)``.
+
+One transition (section 4.3), in this order:
+
+1. the agent moves (clipped per axis at the border);
+2. it collects the item in the new cell;
+3. it is disabled with that cell's risk;
+4. its energy drops by one unless it is in the base, where it refills to the
+   maximum; it is disabled when the energy reaches 0.
+
+The episode *terminates* when the agent is disabled or every item is
+collected (and optionally when a step leaves the state unchanged, see
+``idle_terminates``); the step cap ``max_steps`` *truncates* it.
+
+The observation is the thesis' two planes (section 4.4.3, "The CNN in ENN"),
+stacked channels-last as ``[N, N, 2]``: ``M^item`` (item rewards) and
+``M^agent`` (the energy at the agent's cell, 0 elsewhere).
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from jaxdc.core import grid
+from jaxdc.core.env import Environment
+
+#: How an episode ended; ``info["outcome"]`` holds the index.
+OUTCOMES = ("running", "risk", "energy", "cleared", "idle", "truncated")
+RUNNING, RISK, ENERGY, CLEARED, IDLE, TRUNCATED = range(len(OUTCOMES))
+
+#: Where the agent starts (an ambiguity of section 4.3: "the initial locations ... are random").
+STARTS = ("random_free", "random", "base")
+#: What "energy consumed" counts (Tables 4.3-4.10).
+ENERGY_METRICS = ("not_stay_in_base", "outside_base", "all_steps")
+
+
+@struct.dataclass
+class EnvParams:
+    """Numeric settings; every leaf may differ across a ``vmap`` batch.
+
+    Build with :meth:`DCP.make_params`, which validates.
+    """
+
+    risk: jax.Array  # [N, N] float32, base risk 0
+    init_energy: jax.Array  # float32; inf = no energy constraint (Table 4.1)
+    max_energy: jax.Array  # float32; inf allowed
+    max_steps: jax.Array  # int32 step cap (truncation)
+
+
+@struct.dataclass
+class EnvState:
+    pos: jax.Array  # [2] int32 (row, col)
+    energy: jax.Array  # float32
+    items: jax.Array  # [N, N] float32 reward per cell
+    time: jax.Array  # int32 steps taken in this episode
+    outcome: jax.Array  # int32 index into OUTCOMES
+    ep_reward: jax.Array  # float32 reward collected so far
+    ep_energy: jax.Array  # int32 energy consumed so far (see ENERGY_METRICS)
+
+
+class DCP(Environment[EnvState, EnvParams]):
+    """The DCP environment (section 4.3) with the gymnax-style functional API.
+
+    Args:
+      grid_size: ``N`` (>= 2).
+      total_reward: number of unit rewards dropped multinomially over the
+        cells at reset; the units on one cell form one item (section 4.4.1).
+      start: ``"random_free"`` (a uniformly random cell without an item; the
+        default, which reproduces Tables 4.3-4.8 best), ``"random"`` (any
+        cell) or ``"base"``.
+      items_on_base: whether the multinomial drop may put items on the base
+        cell (the thesis draws over "the 8 x 8 options").
+      energy_metric: what "energy consumed" counts: ``"not_stay_in_base"``
+        (every step except one that starts and ends in the base; default),
+        ``"outside_base"`` (steps that end outside the base, i.e. the actual
+        decrements) or ``"all_steps"``.
+      idle_terminates: end the episode (outcome ``idle``) when a step leaves
+        the state unchanged. A deterministic policy would then repeat that
+        step forever, so for the navigators this only saves time; keep it
+        off for stochastic policies.
+    """
+
+    def __init__(
+        self,
+        grid_size: int = 8,
+        total_reward: int = 30,
+        start: str = "random_free",
+        items_on_base: bool = True,
+        energy_metric: str = "not_stay_in_base",
+        idle_terminates: bool = False,
+    ):
+        self.grid_size = grid.check_grid_size(grid_size)
+        if isinstance(total_reward, bool) or not isinstance(total_reward, (int, np.integer)):
+            raise TypeError(f"total_reward must be an int >= 1, got {total_reward!r}")
+        if total_reward < 1:
+            raise ValueError(f"total_reward must be >= 1, got {total_reward}")
+        if start not in STARTS:
+            raise ValueError(f"start must be one of {STARTS}, got {start!r}")
+        if energy_metric not in ENERGY_METRICS:
+            raise ValueError(f"energy_metric must be one of {ENERGY_METRICS}, got {energy_metric!r}")
+        if not items_on_base and grid_size * grid_size < 2:
+            raise ValueError("items_on_base=False needs at least one non-base cell")
+        self.total_reward = int(total_reward)
+        self.start = start
+        self.items_on_base = bool(items_on_base)
+        self.energy_metric = energy_metric
+        self.idle_terminates = bool(idle_terminates)
+
+    def _config(self) -> tuple:
+        return (self.grid_size, self.total_reward, self.start, self.items_on_base,
+                self.energy_metric, self.idle_terminates)
+
+    def __eq__(self, other) -> bool:  # equal configs share jit caches (the env is a static arg)
+        return type(other) is type(self) and other._config() == self._config()
+
+    def __hash__(self) -> int:
+        return hash((type(self).__name__,) + self._config())
+
+    def __repr__(self) -> str:
+        return (
+            f"DCP(grid_size={self.grid_size}, total_reward={self.total_reward}, start={self.start!r}, "
+            f"items_on_base={self.items_on_base}, energy_metric={self.energy_metric!r}, "
+            f"idle_terminates={self.idle_terminates})"
+        )
+
+    # -- parameters -------------------------------------------------------------------
+    def make_params(self, risk="high", energy=(8.0, 16.0), max_steps: int = 1000) -> EnvParams:
+        """Validated :class:`EnvParams`.
+
+        Args:
+          risk: a preset of Table 4.2 (``"low"``, ``"medium"``, ``"high"``) or an
+            ``N x N`` array with values in ``[0, 1]`` and base risk 0.
+          energy: ``(initial, maximum)``; ``float("inf")`` for no constraint.
+          max_steps: the step cap (>= 1) that truncates an episode.
+        """
+        risk = grid.as_risk_map(risk, self.grid_size)
+        init_e, max_e = check_energy(energy)
+        if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
+            raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
+        return EnvParams(
+            risk=jnp.asarray(risk, jnp.float32),
+            init_energy=jnp.float32(init_e),
+            max_energy=jnp.float32(max_e),
+            max_steps=jnp.int32(max_steps),
+        )
+
+    @property
+    def default_params(self) -> EnvParams:
+        return self.make_params()
+
+    @property
+    def num_actions(self) -> int:
+        return grid.NUM_ACTIONS
+
+    def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
+        return (self.grid_size, self.grid_size, 2)
+
+    # -- dynamics ---------------------------------------------------------------------
+    def reset_env(self, key, params: EnvParams):
+        """A random initial state (section 4.3): multinomial items, then the start cell."""
+        n = self.grid_size
+        k_items, k_start = jax.random.split(key)
+        low = 0 if self.items_on_base else 1
+        cells = jax.random.randint(k_items, (self.total_reward,), low, n * n)
+        items = jnp.sum(jax.nn.one_hot(cells, n * n, dtype=jnp.float32), axis=0)
+        if self.start == "base":
+            flat = jnp.int32(0)
+        elif self.start == "random":
+            flat = jax.random.randint(k_start, (), 0, n * n)
+        else:  # random_free: the k-th free cell for k uniform; any cell if none is free
+            free = items == 0
+            free = jnp.where(free.any(), free, True)
+            count = jnp.cumsum(free)
+            k = jax.random.randint(k_start, (), 0, count[-1])
+            flat = jnp.searchsorted(count, k, side="right").astype(jnp.int32)
+        state = EnvState(
+            pos=jnp.stack([flat // n, flat % n]).astype(jnp.int32),
+            energy=params.init_energy,
+            items=items.reshape(n, n),
+            time=jnp.int32(0),
+            outcome=jnp.int32(RUNNING),
+            ep_reward=jnp.float32(0.0),
+            ep_energy=jnp.int32(0),
+        )
+        return self.observe(state, params), state
+
+    def step_env(self, key, state: EnvState, action, params: EnvParams):
+        """One transition of section 4.3, without auto-reset."""
+        n = self.grid_size
+        pos = grid.move(state.pos, action, n)
+        reward = state.items[pos[0], pos[1]]
+        items = state.items.at[pos[0], pos[1]].set(0.0)
+        hit = jax.random.uniform(key) < params.risk[pos[0], pos[1]]
+        in_base = jnp.all(pos == 0)
+        was_in_base = jnp.all(state.pos == 0)
+        energy = jnp.where(in_base, params.max_energy, state.energy - 1.0)
+        out_of_energy = jnp.logical_and(~in_base, energy <= 0)
+        cleared = jnp.all(items <= 0)
+        if self.energy_metric == "not_stay_in_base":
+            used = ~jnp.logical_and(in_base, was_in_base)
+        elif self.energy_metric == "outside_base":
+            used = ~in_base
+        else:
+            used = jnp.bool_(True)
+        unchanged = (
+            jnp.all(pos == state.pos) & (energy == state.energy) & (reward == 0) & ~hit & ~out_of_energy
+        )
+        idle = unchanged if self.idle_terminates else jnp.bool_(False)
+        time = state.time + 1
+        outcome = jnp.select(
+            [hit, out_of_energy, cleared, idle, time >= params.max_steps],
+            [RISK, ENERGY, CLEARED, IDLE, TRUNCATED],
+            RUNNING,
+        ).astype(jnp.int32)
+        terminated = (outcome != RUNNING) & (outcome != TRUNCATED)
+        truncated = outcome == TRUNCATED
+        new_state = EnvState(
+            pos=pos,
+            energy=energy,
+            items=items,
+            time=time,
+            outcome=outcome,
+            ep_reward=state.ep_reward + reward,
+            ep_energy=state.ep_energy + used.astype(jnp.int32),
+        )
+        info = {
+            "outcome": outcome,
+            "episode_reward": new_state.ep_reward,
+            "episode_energy": new_state.ep_energy,
+            "episode_steps": time,
+        }
+        return self.observe(new_state, params), new_state, reward, terminated, truncated, info
+
+    def observe(self, state: EnvState, params: EnvParams):
+        """The two planes ``[N, N, 2]``: item rewards and the energy at the agent's cell."""
+        n = self.grid_size
+        agent = jnp.zeros((n, n), jnp.float32).at[state.pos[0], state.pos[1]].set(state.energy)
+        return jnp.stack([state.items, agent], axis=-1)
+
+
+def check_energy(energy) -> tuple[float, float]:
+    """Validate ``(initial, maximum)`` energy: ``0 < initial <= maximum``; ``inf`` allowed."""
+    try:
+        init_e, max_e = (float(e) for e in energy)
+    except (TypeError, ValueError):
+        raise TypeError(f"energy must be a pair (initial, maximum) of numbers, got {energy!r}") from None
+    for name, e in (("initial energy", init_e), ("maximum energy", max_e)):
+        if math.isnan(e) or e <= 0:
+            raise ValueError(f"{name} must be > 0 (inf allowed), got {e}")
+    if init_e > max_e:
+        raise ValueError(f"initial energy ({init_e}) must not exceed the maximum energy ({max_e})")
+    return init_e, max_e

@@ -1,0 +1,95 @@
+"""Batched evaluation of DCP policies and the episode statistics of Tables 4.1-4.10.
+
+``evaluate_policy`` plays many episodes of a heuristic policy (by name) or any
+``policy(key, obs, state) -> action`` at once and :func:`summarize` turns the
+final states into the thesis' columns: reward, energy and reward per energy
+(RPE), each as mean and SD, plus how the episodes ended.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import jax
+import numpy as np
+
+from jaxdc.core.paths import safest_paths
+from jaxdc.core.rollout import run_episodes
+from jaxdc.dcp import navigators
+from jaxdc.dcp.env import DCP, OUTCOMES, EnvParams
+from jaxdc.dcp.planners import PlannerConfig
+
+#: How RPE treats an episode that consumed no energy (footnote 4 of Table 4.3 is silent).
+RPE_ZERO = ("exclude", "zero")
+
+
+def check_episodes(episodes) -> int:
+    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
+        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
+    return int(episodes)
+
+
+def heuristic_policy(name: str, table, cfg: PlannerConfig = PlannerConfig()):
+    """``policy(key, obs, state)`` for a navigator or planner name (see :data:`navigators.POLICIES`)."""
+    if name not in navigators.POLICIES:
+        raise ValueError(f"policy must be one of {navigators.POLICIES}, got {name!r}")
+
+    def policy(key, obs, state):
+        return navigators.policy_action(name, state, table, cfg)
+
+    return policy
+
+
+@functools.partial(jax.jit, static_argnames=("env", "name", "cfg", "episodes", "path_risk"))
+def _run_heuristic(env, params, key, name, cfg, episodes, path_risk):
+    table = safest_paths(params.risk, path_risk)
+    return run_episodes(env, params, heuristic_policy(name, table, cfg), key, episodes)
+
+
+def evaluate_heuristic(
+    env: DCP,
+    params: EnvParams,
+    name: str,
+    key,
+    episodes: int = 10_000,
+    cfg: PlannerConfig = PlannerConfig(),
+    path_risk: str = "departed",
+):
+    """Final states of ``episodes`` episodes of heuristic policy ``name`` (jitted, batched)."""
+    if name not in navigators.POLICIES:
+        raise ValueError(f"policy must be one of {navigators.POLICIES}, got {name!r}")
+    return _run_heuristic(env, params, key, name, cfg, check_episodes(episodes), path_risk)
+
+
+def summarize(final_states, rpe_zero: str = "exclude") -> dict:
+    """Mean/SD of reward, energy and RPE over episodes, plus outcome counts.
+
+    RPE is the mean of per-episode ``reward / energy`` (footnote 4: "Reward
+    per energy is also an average over 10,000 runs"). Episodes that used no
+    energy are left out (``rpe_zero="exclude"``) or count as RPE 0
+    (``"zero"``). SDs are population SDs (``ddof=0``).
+    """
+    if rpe_zero not in RPE_ZERO:
+        raise ValueError(f"rpe_zero must be one of {RPE_ZERO}, got {rpe_zero!r}")
+    reward = np.asarray(final_states.ep_reward, np.float64)
+    energy = np.asarray(final_states.ep_energy, np.float64)
+    outcome = np.asarray(final_states.outcome)
+    used = energy > 0
+    rpe = np.where(used, reward / np.where(used, energy, 1.0), 0.0)
+    if rpe_zero == "exclude":
+        rpe = rpe[used]
+
+    def stats(x):
+        if x.size == 0:
+            return {"mean": math.nan, "sd": math.nan}
+        return {"mean": float(x.mean()), "sd": float(x.std())}
+
+    return {
+        "reward": stats(reward),
+        "energy": stats(energy),
+        "rpe": stats(rpe),
+        "episodes": int(reward.size),
+        "outcomes": {name: int((outcome == i).sum()) for i, name in enumerate(OUTCOMES) if name != "running"},
+        "steps": stats(np.asarray(final_states.time, np.float64)),
+    }
