@@ -38,6 +38,8 @@ RUNNING, RISK, ENERGY, CLEARED, IDLE, TRUNCATED = range(len(OUTCOMES))
 
 #: Where the agent starts (an ambiguity of section 4.3: "the initial locations ... are random").
 STARTS = ("random_free", "random", "base")
+#: The order of items that breaks ties in the planners ("first item" of Algorithms 7-8).
+ITEM_ORDERS = ("drop", "row_major")
 #: What "energy consumed" counts (Tables 4.3-4.10).
 ENERGY_METRICS = ("not_stay_in_base", "outside_base", "all_steps")
 
@@ -64,6 +66,7 @@ class EnvState:
     outcome: jax.Array  # int32 index into OUTCOMES
     ep_reward: jax.Array  # float32 reward collected so far
     ep_energy: jax.Array  # int32 energy consumed so far (see ENERGY_METRICS)
+    rank: jax.Array  # [N, N] int32 position of each cell in the item list (ties; see ITEM_ORDERS)
 
 
 class DCP(Environment[EnvState, EnvParams]):
@@ -82,6 +85,11 @@ class DCP(Environment[EnvState, EnvParams]):
         (every step except one that starts and ends in the base; default),
         ``"outside_base"`` (steps that end outside the base, i.e. the actual
         decrements) or ``"all_steps"``.
+      item_order: the order of the item list that Algorithms 7 and 8 iterate,
+        which decides ties between equally good items: ``"drop"`` (the order
+        in which the multinomial drop first hit each cell, i.e. a random
+        order; default, which reproduces Tables 4.3-4.8 best) or
+        ``"row_major"`` (cell order).
       idle_terminates: end the episode (outcome ``idle``) when a step leaves
         the state unchanged. A deterministic policy would then repeat that
         step forever, so for the navigators this only saves time; keep it
@@ -96,6 +104,7 @@ class DCP(Environment[EnvState, EnvParams]):
         items_on_base: bool = True,
         energy_metric: str = "not_stay_in_base",
         idle_terminates: bool = False,
+        item_order: str = "drop",
     ):
         self.grid_size = grid.check_grid_size(grid_size)
         if isinstance(total_reward, bool) or not isinstance(total_reward, (int, np.integer)):
@@ -106,17 +115,18 @@ class DCP(Environment[EnvState, EnvParams]):
             raise ValueError(f"start must be one of {STARTS}, got {start!r}")
         if energy_metric not in ENERGY_METRICS:
             raise ValueError(f"energy_metric must be one of {ENERGY_METRICS}, got {energy_metric!r}")
-        if not items_on_base and grid_size * grid_size < 2:
-            raise ValueError("items_on_base=False needs at least one non-base cell")
+        if item_order not in ITEM_ORDERS:
+            raise ValueError(f"item_order must be one of {ITEM_ORDERS}, got {item_order!r}")
         self.total_reward = int(total_reward)
         self.start = start
         self.items_on_base = bool(items_on_base)
         self.energy_metric = energy_metric
         self.idle_terminates = bool(idle_terminates)
+        self.item_order = item_order
 
     def _config(self) -> tuple:
         return (self.grid_size, self.total_reward, self.start, self.items_on_base,
-                self.energy_metric, self.idle_terminates)
+                self.energy_metric, self.idle_terminates, self.item_order)
 
     def __eq__(self, other) -> bool:  # equal configs share jit caches (the env is a static arg)
         return type(other) is type(self) and other._config() == self._config()
@@ -128,7 +138,7 @@ class DCP(Environment[EnvState, EnvParams]):
         return (
             f"DCP(grid_size={self.grid_size}, total_reward={self.total_reward}, start={self.start!r}, "
             f"items_on_base={self.items_on_base}, energy_metric={self.energy_metric!r}, "
-            f"idle_terminates={self.idle_terminates})"
+            f"idle_terminates={self.idle_terminates}, item_order={self.item_order!r})"
         )
 
     # -- parameters -------------------------------------------------------------------
@@ -170,7 +180,13 @@ class DCP(Environment[EnvState, EnvParams]):
         k_items, k_start = jax.random.split(key)
         low = 0 if self.items_on_base else 1
         cells = jax.random.randint(k_items, (self.total_reward,), low, n * n)
-        items = jnp.sum(jax.nn.one_hot(cells, n * n, dtype=jnp.float32), axis=0)
+        hits = jax.nn.one_hot(cells, n * n, dtype=jnp.float32)  # [units, cells]
+        items = jnp.sum(hits, axis=0)
+        if self.item_order == "drop":  # index of the first unit that landed on each cell
+            first = jnp.where(hits > 0, jnp.arange(self.total_reward)[:, None], self.total_reward)
+            rank = jnp.min(first, axis=0).astype(jnp.int32)
+        else:
+            rank = jnp.arange(n * n, dtype=jnp.int32)
         if self.start == "base":
             flat = jnp.int32(0)
         elif self.start == "random":
@@ -189,6 +205,7 @@ class DCP(Environment[EnvState, EnvParams]):
             outcome=jnp.int32(RUNNING),
             ep_reward=jnp.float32(0.0),
             ep_energy=jnp.int32(0),
+            rank=rank.reshape(n, n),
         )
         return self.observe(state, params), state
 
@@ -230,6 +247,7 @@ class DCP(Environment[EnvState, EnvParams]):
             outcome=outcome,
             ep_reward=state.ep_reward + reward,
             ep_energy=state.ep_energy + used.astype(jnp.int32),
+            rank=state.rank,
         )
         info = {
             "outcome": outcome,

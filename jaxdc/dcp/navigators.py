@@ -58,9 +58,8 @@ POLICIES = tuple(NAVIGATORS) + PLANNER_POLICIES
 
 
 def _item_plan(name: str, state, table: PathTable, cfg: PlannerConfig) -> Plan:
-    if name == "cf":
-        return planners.cf(state.pos, state.items, table, cfg)
-    return planners.tour_planner(name)(state.pos, state.items, table, cfg)
+    planner = planners.cf if name == "cf" else planners.tour_planner(name)
+    return planner(state.pos, state.items, table, cfg, state.rank)
 
 
 def _home(name: str, pos, grid_size: int, table: PathTable, cfg: PlannerConfig) -> Plan:
@@ -103,8 +102,7 @@ def enn_heuristics(state, params, table: PathTable, cfg: PlannerConfig = Planner
     action leads to. Each planner is computed once and shared.
     """
     n = state.items.shape[0]
-    items = {"lpg": planners.lpg(state.pos, state.items, table, cfg),
-             "cf": planners.cf(state.pos, state.items, table, cfg)}
+    items = {name: _item_plan(name, state, table, cfg) for name in ("lpg", "cf")}
     homes = {h: _home(h, state.pos, n, table, cfg) for h in ("safe_home", "fast_home")}
     navs = [
         navigate(items[n1], homes[n0], _home(n0, planners.unflat(items[n1].target, n), n, table, cfg).length,

@@ -69,11 +69,15 @@ class Plan:
     length: jnp.ndarray  # int32 number of moves to the target
 
 
-def first_best(score, rtol: float):
-    """Index of the first entry within ``rtol`` (relative) of the maximum: ties go to item order."""
+def first_best(score, rtol: float, rank=None):
+    """Index of the best entry; entries within ``rtol`` (relative) of the maximum tie,
+    and ties go to the lowest ``rank`` (item order; the lowest index if ``rank`` is None)."""
     best = jnp.max(score)
     tol = rtol * jnp.maximum(jnp.abs(best), 1e-30)
-    return jnp.argmax(score >= best - tol).astype(jnp.int32)
+    tied = score >= best - tol
+    if rank is None:
+        return jnp.argmax(tied).astype(jnp.int32)
+    return jnp.argmin(jnp.where(tied, rank.reshape(-1), jnp.iinfo(jnp.int32).max)).astype(jnp.int32)
 
 
 def flat(pos, grid_size: int):
@@ -94,14 +98,14 @@ def tour_planner(criterion: str):
     if criterion not in APPEND_CRITERIA:
         raise ValueError(f"criterion must be one of {APPEND_CRITERIA}, got {criterion!r}")
 
-    def planner(pos, items, table: PathTable, cfg: PlannerConfig = PlannerConfig()) -> Plan:
+    def planner(pos, items, table: PathTable, cfg: PlannerConfig = PlannerConfig(), rank=None) -> Plan:
         n = items.shape[0]
         z = flat(pos, n)
         beta = items.reshape(-1)
         score = append_scores(
             criterion, table.success[z], table.success, beta, beta > 0, lpg_init=cfg.lpg_init
         )
-        target = jnp.where(jnp.any(beta > 0), first_best(score, cfg.tie_rtol), z).astype(jnp.int32)
+        target = jnp.where(jnp.any(beta > 0), first_best(score, cfg.tie_rtol, rank), z).astype(jnp.int32)
         return Plan(table.next_action[z, target], target, table.steps[z, target])
 
     planner.__name__ = criterion
@@ -113,13 +117,15 @@ def tour_planner(criterion: str):
 lpg = tour_planner("lpg")
 
 
-def cf(pos, items, table: PathTable | None = None, cfg: PlannerConfig = PlannerConfig()) -> Plan:
-    """Closest-First, Algorithm 8: the nearest item (first in item order), by the shortest path."""
+def cf(pos, items, table: PathTable | None = None, cfg: PlannerConfig = PlannerConfig(), rank=None) -> Plan:
+    """Closest-First, Algorithm 8: the nearest item (first in item order ``rank``), by the shortest path."""
     n = items.shape[0]
     cells = grid.cell_coords(n)
     dist = grid.chebyshev(cells, pos) if cfg.cf_distance == "chebyshev" else grid.manhattan(cells, pos)
     has_item = items.reshape(-1) > 0
-    target = jnp.where(jnp.any(has_item), jnp.argmin(jnp.where(has_item, dist, jnp.iinfo(jnp.int32).max)), flat(pos, n))
+    rank = jnp.arange(n * n) if rank is None else rank.reshape(-1)
+    key = jnp.where(has_item, dist * (n * n) + rank, jnp.iinfo(jnp.int32).max)
+    target = jnp.where(jnp.any(has_item), jnp.argmin(key), flat(pos, n))
     tpos = unflat(target, n)
     return Plan(
         grid.shortest_move(pos, tpos, n, cfg.shortest_move),
