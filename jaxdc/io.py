@@ -30,3 +30,18 @@ def atomic_write(path, data: bytes | str) -> str:
 def atomic_write_json(path, obj) -> str:
     """``atomic_write`` of ``obj`` as indented JSON."""
     return atomic_write(path, json.dumps(obj, indent=2, sort_keys=False) + "\n")
+
+
+def enable_compilation_cache(path: str | None = None) -> None:
+    """Turn on JAX's persistent compilation cache (default ``~/.cache/jaxdc/xla``).
+
+    The command-line tools call this so that a second run skips most of the
+    XLA compile time. Set ``JAXDC_NO_CACHE=1`` to turn it off.
+    """
+    if os.environ.get("JAXDC_NO_CACHE"):
+        return
+    import jax
+
+    path = path or os.path.join(os.path.expanduser("~"), ".cache", "jaxdc", "xla")
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
