@@ -1,0 +1,356 @@
+"""Gymnasium adapters for the functional jaxdc environments.
+
+* :class:`JaxToGymnasium` -- one environment as a stateful :class:`gymnasium.Env`.
+  ``step`` calls the jitted ``env.step_env`` (no auto-reset: gymnasium users
+  call ``reset`` themselves).
+* :class:`JaxVectorEnv` -- ``num_envs`` copies behind one jitted, vmapped
+  ``env.step`` with jaxdc's *same-step* auto-reset
+  (``metadata["autoreset_mode"] == AutoresetMode.SAME_STEP``): when a copy's
+  episode ends, the returned observation is already the first one of its next
+  episode and the last one of the finished episode is in ``info["final_obs"]``
+  (mask ``info["_final_obs"]``).
+
+Key scheme (both classes): ``reset(seed=s)`` sets ``key = PRNGKey(s)``; every
+``reset``/``step`` then does ``key, sub = jax.random.split(key)`` and uses
+``sub`` (the vector env splits ``sub`` into ``num_envs`` keys). A reset
+without a seed continues the stream; the very first unseeded reset draws the
+seed from gymnasium's ``np_random``.
+
+``make_dcp`` / ``make_dcp_vector`` are the entry points registered as
+``"jaxdc/DCP-v0"`` (see :mod:`jaxdc`).
+"""
+
+from __future__ import annotations
+
+import sys
+from functools import partial
+from typing import Any
+
+import gymnasium
+import jax
+import jax.numpy as jnp
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from jaxdc.core.env import Environment
+
+RENDER_MODES = ("ansi",)
+
+__all__ = ["JaxToGymnasium", "JaxVectorEnv", "make_dcp", "make_dcp_vector", "render_ansi", "RENDER_MODES"]
+
+
+def _check_render_mode(render_mode):
+    if render_mode is not None and render_mode not in RENDER_MODES:
+        raise ValueError(f"render_mode must be None or one of {list(RENDER_MODES)}, got {render_mode!r}")
+    return render_mode
+
+
+def _outcome_names(env, outcome_names):
+    if outcome_names is not None:
+        return tuple(outcome_names)
+    names = getattr(env, "OUTCOMES", None)
+    if names is None:
+        names = getattr(sys.modules.get(type(env).__module__), "OUTCOMES", None)
+    return None if names is None else tuple(names)
+
+
+def _spaces(env: Environment, params, observation_space=None):
+    if observation_space is None:
+        shape = tuple(int(s) for s in env.observation_shape(params))
+        low = np.full(shape, -np.inf, np.float32)
+        if len(shape) == 3 and shape[-1] == 2:
+            # DCP planes: items >= 0; the agent plane holds the energy, which may
+            # be inf (no constraint) and, with a non-integer budget, dips into
+            # (-1, 0] on the step that disables the agent (energy > 0 before it).
+            low[..., 0] = 0.0
+            low[..., 1] = -1.0
+        observation_space = spaces.Box(low=low, high=np.inf, shape=shape, dtype=np.float32)
+    return observation_space, spaces.Discrete(int(env.num_actions))
+
+
+# One compiled function per (env config[, batch size]), shared by all wrappers:
+# the env is a static argument (DCP defines __eq__/__hash__ on its config), the
+# params a traced pytree, so reset/step never retrace after the first call.
+@partial(jax.jit, static_argnums=0)
+def _reset_one(env, key, params):
+    key, sub = jax.random.split(key)
+    obs, state = env.reset_env(sub, params)
+    return key, obs, state
+
+
+@partial(jax.jit, static_argnums=0)
+def _step_one(env, key, state, action, params):
+    key, sub = jax.random.split(key)
+    return (key,) + tuple(env.step_env(sub, state, action, params))
+
+
+@partial(jax.jit, static_argnums=(0, 1))
+def _reset_batch(env, num_envs, key, params):
+    key, sub = jax.random.split(key)
+    obs, state = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(sub, num_envs), params)
+    return key, obs, state
+
+
+@partial(jax.jit, static_argnums=(0, 1))
+def _step_batch(env, num_envs, key, state, actions, params):
+    key, sub = jax.random.split(key)
+    out = jax.vmap(env.step, in_axes=(0, 0, 0, None))(jax.random.split(sub, num_envs), state, actions, params)
+    return (key,) + tuple(out)
+
+
+def _fmt(x) -> str:
+    x = float(x)
+    if np.isinf(x):
+        return "inf"
+    return str(int(x)) if x == int(x) else f"{x:g}"
+
+
+def render_ansi(state, params) -> str:
+    """Text grid of a DCP-like state: ``B`` base, ``A`` agent, item reward digits
+    (``*`` above 9), ``.`` empty; one row per line, then a status line."""
+    items = np.asarray(state.items)
+    pos = tuple(int(p) for p in np.asarray(state.pos))
+    n = items.shape[0]
+    rows = []
+    for r in range(n):
+        cells = []
+        for c in range(n):
+            if (r, c) == pos:
+                ch = "A"
+            elif (r, c) == (0, 0):
+                ch = "B"
+            elif items[r, c] > 0:
+                v = float(items[r, c])
+                ch = "*" if v > 9 else str(int(round(v))) if v >= 1 else "+"
+            else:
+                ch = "."
+            cells.append(ch)
+        rows.append(" ".join(cells))
+    status = f"energy {_fmt(state.energy)}/{_fmt(params.max_energy)}"
+    if hasattr(state, "ep_reward"):
+        status += f", reward {_fmt(state.ep_reward)}"
+    if hasattr(state, "time"):
+        status += f", step {int(state.time)}"
+    rows.append(status)
+    return "\n".join(rows) + "\n"
+
+
+def _check_action(action, num_actions: int) -> np.int32:
+    try:
+        a = np.asarray(action)
+        ok = a.shape == () and np.issubdtype(a.dtype, np.integer) and 0 <= int(a) < num_actions
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ValueError(f"action must be an int in [0, {num_actions}), got {action!r}")
+    return np.int32(a)
+
+
+class JaxToGymnasium(gymnasium.Env):
+    """A jaxdc :class:`~jaxdc.core.env.Environment` as a :class:`gymnasium.Env`.
+
+    Args:
+      env: the functional environment.
+      params: its ``EnvParams`` (default: ``env.default_params``).
+      render_mode: ``None`` or ``"ansi"``.
+      outcome_names: names for ``info["outcome"]`` indices (default: the
+        env's ``OUTCOMES``, looked up on the env or its module); the index
+        stays in ``info["outcome_index"]``.
+      observation_space: override of the default ``Box`` (for the DCP's
+        ``[N, N, 2]`` planes: item plane in ``[0, inf)``, agent plane in
+        ``[-1, inf)``; otherwise unbounded).
+    """
+
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 4}
+
+    def __init__(self, env: Environment, params=None, render_mode: str | None = None, outcome_names=None,
+                 observation_space: spaces.Space | None = None):
+        self.render_mode = _check_render_mode(render_mode)
+        self.env = env
+        self.params = env.default_params if params is None else params
+        self.observation_space, self.action_space = _spaces(env, self.params, observation_space)
+        self.outcome_names = _outcome_names(env, outcome_names)
+        self._key = None
+        self._state = None
+        self._reset_fn = partial(_reset_one, env)
+        self._step_fn = partial(_step_one, env)
+
+    @property
+    def state(self):
+        """The current functional state (``None`` before the first reset)."""
+        return self._state
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            self._key = jax.random.PRNGKey(seed)
+        elif self._key is None:
+            self._key = jax.random.PRNGKey(int(self.np_random.integers(0, 2**31 - 1)))
+        self._key, obs, self._state = self._reset_fn(self._key, self.params)
+        return np.asarray(obs, dtype=np.float32), {}
+
+    def step(self, action):
+        if self._state is None:
+            raise RuntimeError("call reset() before step()")
+        action = _check_action(action, int(self.action_space.n))
+        out = self._step_fn(self._key, self._state, action, self.params)
+        self._key, obs, self._state, reward, terminated, truncated, info = out
+        obs, reward, terminated, truncated, info = jax.device_get((obs, reward, terminated, truncated, info))
+        return (
+            np.asarray(obs, dtype=np.float32),
+            float(reward),
+            bool(terminated),
+            bool(truncated),
+            self._info(info),
+        )
+
+    def _info(self, info) -> dict:
+        out = {}
+        for k, v in info.items():
+            v = np.asarray(v)
+            out[k] = v.item() if v.shape == () else v
+        if "outcome" in out and self.outcome_names is not None:
+            out["outcome_index"] = int(out["outcome"])
+            out["outcome"] = self.outcome_names[int(out["outcome"])]
+        return out
+
+    def render(self):
+        if self.render_mode is None:
+            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='ansi'")
+            return None
+        if self._state is None:
+            raise RuntimeError("call reset() before render()")
+        return render_ansi(jax.device_get(self._state), jax.device_get(self.params))
+
+
+class JaxVectorEnv(gymnasium.vector.VectorEnv):
+    """``num_envs`` copies of a jaxdc environment behind one jitted ``vmap`` step.
+
+    Same-step auto-reset (jaxdc's ``Environment.step``): see the module docs.
+    ``info`` holds, per copy and each with its ``_key`` mask, ``final_obs``
+    (an object array, the finished episode's last observation where
+    ``terminated | truncated``, else ``None``), and the step infos of the
+    underlying env (for the DCP: ``outcome`` names, ``episode_reward``,
+    ``episode_energy``, ``episode_steps`` -- those of the finished episode on
+    the step it ends).
+    """
+
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 4, "autoreset_mode": AutoresetMode.SAME_STEP}
+
+    def __init__(self, env: Environment, num_envs: int, params=None, render_mode: str | None = None,
+                 outcome_names=None, observation_space: spaces.Space | None = None):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
+        self.render_mode = _check_render_mode(render_mode)
+        self.env = env
+        self.num_envs = int(num_envs)
+        self.params = env.default_params if params is None else params
+        self.single_observation_space, self.single_action_space = _spaces(env, self.params, observation_space)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.outcome_names = _outcome_names(env, outcome_names)
+        self._key = None
+        self._state = None
+        self._reset_fn = partial(_reset_batch, env, self.num_envs)
+        self._step_fn = partial(_step_batch, env, self.num_envs)
+
+    @property
+    def state(self):
+        """The batched functional state (``None`` before the first reset)."""
+        return self._state
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            self._key = jax.random.PRNGKey(seed)
+        elif self._key is None:
+            self._key = jax.random.PRNGKey(int(self.np_random.integers(0, 2**31 - 1)))
+        self._key, obs, self._state = self._reset_fn(self._key, self.params)
+        return np.asarray(obs, dtype=np.float32), {}
+
+    def step(self, actions):
+        if self._state is None:
+            raise RuntimeError("call reset() before step()")
+        a = np.asarray(actions)
+        if a.shape != (self.num_envs,) or not np.issubdtype(a.dtype, np.integer) or not self.action_space.contains(
+            a.astype(self.action_space.dtype)
+        ):
+            raise ValueError(
+                f"actions must be {self.num_envs} ints in [0, {self.single_action_space.n}), got {actions!r}"
+            )
+        out = self._step_fn(self._key, self._state, a.astype(np.int32), self.params)
+        self._key, obs, self._state, reward, terminated, truncated, info = out
+        obs, reward, terminated, truncated, info = jax.device_get((obs, reward, terminated, truncated, info))
+        terminated = np.asarray(terminated, dtype=np.bool_)
+        truncated = np.asarray(truncated, dtype=np.bool_)
+        return (
+            np.asarray(obs, dtype=np.float32),
+            np.asarray(reward, dtype=np.float64),
+            terminated,
+            truncated,
+            self._info(info, terminated | truncated),
+        )
+
+    def _info(self, info, done) -> dict:
+        info = dict(info)
+        final = np.asarray(info.pop("final_observation"), dtype=np.float32)
+        out: dict[str, Any] = {}
+        for k, v in info.items():
+            v = np.asarray(v)
+            if k == "outcome" and self.outcome_names is not None:
+                out["outcome_index"] = v.astype(np.int64)
+                out["_outcome_index"] = np.ones(self.num_envs, np.bool_)
+                v = np.array([self.outcome_names[int(i)] for i in v], dtype=object)
+            out[k] = v
+            out[f"_{k}"] = np.ones(self.num_envs, np.bool_)
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        for i in np.flatnonzero(done):
+            final_obs[i] = final[i]
+        out["final_obs"] = final_obs
+        out["_final_obs"] = done.copy()
+        return out
+
+    def render(self):
+        if self.render_mode is None:
+            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='ansi'")
+            return None
+        if self._state is None:
+            raise RuntimeError("call reset() before render()")
+        state, params = jax.device_get((self._state, self.params))
+        return tuple(
+            render_ansi(jax.tree_util.tree_map(lambda x, i=i: x[i], state), params) for i in range(self.num_envs)
+        )
+
+
+# -- entry points of "jaxdc/DCP-v0" --------------------------------------------------------
+
+
+def _build_dcp(risk, energy, grid_size, total_reward, max_steps, start, dcp_kwargs):
+    from jaxdc.dcp.env import DCP
+
+    env = DCP(grid_size=grid_size, total_reward=total_reward, start=start, **dcp_kwargs)
+    return env, env.make_params(risk=risk, energy=energy, max_steps=max_steps)
+
+
+def make_dcp(risk="high", energy=(8.0, 16.0), grid_size: int = 8, total_reward: int = 30, max_steps: int = 1000,
+             start: str = "random_free", render_mode: str | None = None, **dcp_kwargs) -> JaxToGymnasium:
+    """The DCP as a :class:`JaxToGymnasium` (entry point of ``"jaxdc/DCP-v0"``).
+
+    ``dcp_kwargs`` go to :class:`~jaxdc.dcp.env.DCP` (``items_on_base``,
+    ``energy_metric``, ``idle_terminates``); ``risk``/``energy``/``max_steps``
+    to ``DCP.make_params``. Both validate (``ValueError``/``TypeError``).
+    """
+    _check_render_mode(render_mode)
+    env, params = _build_dcp(risk, energy, grid_size, total_reward, max_steps, start, dcp_kwargs)
+    return JaxToGymnasium(env, params, render_mode=render_mode)
+
+
+def make_dcp_vector(num_envs: int = 1, risk="high", energy=(8.0, 16.0), grid_size: int = 8, total_reward: int = 30,
+                    max_steps: int = 1000, start: str = "random_free", render_mode: str | None = None,
+                    **dcp_kwargs) -> JaxVectorEnv:
+    """The DCP as a :class:`JaxVectorEnv` (vector entry point of ``"jaxdc/DCP-v0"``)."""
+    _check_render_mode(render_mode)
+    env, params = _build_dcp(risk, energy, grid_size, total_reward, max_steps, start, dcp_kwargs)
+    return JaxVectorEnv(env, num_envs, params, render_mode=render_mode)
