@@ -151,6 +151,35 @@ def run_experiment(rewards, graphs, nodes, alphas, base, seed, builders, cluster
     return raw, timing
 
 
+def _worker(task):
+    cache, *rest = task
+    if cache:
+        _enable_cache()
+    return run_experiment(*rest, quiet=True)
+
+
+def run_parallel(workers, rewards, graphs, nodes, alphas, base, seed, cache, quiet):
+    """:func:`run_experiment` split over processes: PGC (all builders) and NC one builder per task."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    from tqdm import tqdm
+
+    from jaxdc.drp.tours import BUILDERS
+
+    tasks = [(cache, rewards, graphs, nodes, alphas, base, seed, [b], ("nc",)) for b in ("gi",) + BUILDERS[:-1]]
+    tasks.append((cache, rewards, graphs, nodes, alphas, base, seed, BUILDERS, ("pgc",)))
+    raw, timing = {}, {}
+    with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
+        futures = [pool.submit(_worker, t) for t in tasks]
+        for f in tqdm(as_completed(futures), total=len(futures), desc=f"DRP rewards {rewards} (tasks)",
+                      disable=quiet, file=sys.stderr):
+            r, t = f.result()
+            raw.update(r)
+            timing.update(t)
+    return dict(sorted(raw.items())), timing
+
+
 def summarise(raw, alphas):
     """Normalised mean and SD (section 3.5.1): divided by the mean reward at alpha = 0."""
     i0 = list(alphas).index(0)
@@ -217,8 +246,12 @@ def cmd_figure(args):
             cached = None
     if cached is None:
         t0 = time.perf_counter()
-        raw, timing = run_experiment(rewards, args.graphs, args.nodes, alphas, args.base, args.seed,
-                                     BUILDERS, ("nc", "pgc"), quiet=args.quiet)
+        if args.workers > 1:
+            raw, timing = run_parallel(args.workers, rewards, args.graphs, args.nodes, alphas, args.base,
+                                       args.seed, args.cache, args.quiet)
+        else:
+            raw, timing = run_experiment(rewards, args.graphs, args.nodes, alphas, args.base, args.seed,
+                                         BUILDERS, ("nc", "pgc"), quiet=args.quiet)
         wall = time.perf_counter() - t0
         norm, rows = summarise(raw, alphas)
         cached = {"config": config, "wall_seconds": wall, "timing": timing, "normaliser": norm, "rows": rows,
@@ -295,6 +328,7 @@ def main(argv=None):
     pf.add_argument("--quick", action="store_true", help="10 graphs of 30 nodes")
     pf.add_argument("--force", action="store_true", help="recompute even if cached results exist")
     pf.add_argument("--cache", action="store_true", help="persistent XLA compilation cache in ~/.cache")
+    pf.add_argument("--workers", type=int, default=1, help="processes (NC builders run in parallel)")
     pf.add_argument("--quiet", action="store_true")
     pg = sub.add_parser("gaps", help="heuristics against the exact solver on small graphs")
     pg.add_argument("--graphs", type=int, default=200)

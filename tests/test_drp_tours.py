@@ -58,7 +58,7 @@ def test_gi_scores_are_eq_3_8():
     t = [3, 1, 6]
     cycle = jnp.asarray([0] + t + [0] * (N - len(t)), jnp.int32)
     mask = jnp.asarray([v not in t and v != 0 for v in range(N + 1)])
-    s = np.asarray(jax.jit(tours.gi_scores)(D, beta, psi, cycle, len(t), mask))
+    s = np.asarray(jax.jit(tours.gi_scores)(psi ** D, beta, cycle, len(t), mask))
     base = ref.rho(Dl, bl, 0.99, t, cyclic=True)
     for u in range(1, N + 1):
         for i in range(len(t) + 1):

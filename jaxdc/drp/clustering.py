@@ -39,9 +39,13 @@ def _bucket(size, n):
     return min(k, n)
 
 
-def _chunks(K):
+def _chunk(K, count):
+    """Batch width for ``count`` jobs of bucket ``K``: a power of 4 from 64, memory-capped."""
     big = int(min(8192, max(64, 2 ** 21 // (K * K))))
-    return min(256, big), big
+    width = 64
+    while width < count and width < big:
+        width *= 4
+    return min(width, big)
 
 
 @partial(jax.jit, static_argnames=("criterion", "K"))
@@ -81,10 +85,11 @@ def evaluate_clusters(criterion, D, beta, psi, gidx, alpha, masks, with_tours=Fa
     buckets = np.array([_bucket(s, n) for s in range(n + 1)])[sizes]
     for K in np.unique(buckets):
         sel = np.flatnonzero(buckets == K)
-        small, big = _chunks(int(K))
+        sel = sel[np.argsort(sizes[sel], kind="stable")]  # similar sizes share a while_loop
+        big = _chunk(int(K), len(sel))
         for start in range(0, len(sel), big):
             part = sel[start:start + big]
-            width = small if len(part) <= small else big
+            width = _chunk(int(K), len(part))
             pad = np.concatenate([part, np.full(width - len(part), part[0])])
             r, t = _evaluate(criterion, int(K), D, beta, psi, jnp.asarray(gidx[pad]),
                              jnp.asarray(alpha[pad], jnp.float32), jnp.asarray(masks[pad]))

@@ -56,27 +56,30 @@ def _append_tour(criterion, D, beta, psi, mask):
     return tour
 
 
-def gi_scores(D, beta, psi, cycle, m, mask):
+def gi_scores(P, beta, cycle, m, mask, rows=None):
     """Eq. 3.8 for every unassigned ``u`` and every position ``i`` of the cyclic partial tour.
 
-    ``cycle[0] = 0`` is the base and ``cycle[1..m]`` the partial tour. Inserting
-    ``u`` after position ``i`` (between ``a = cycle[i]`` and its successor ``b``,
-    the base after the last node) gains ``psi^(D_t(a) + D(a, u)) beta(u)`` and
-    discounts everything after ``a``, the return's ``alpha`` included, by
-    ``psi^(D(a, u) + D(u, b) - D(a, b))``. Returns ``[positions, nodes]`` scores,
-    ``-inf`` where invalid.
+    ``P = psi**D``; ``cycle[0] = 0`` is the base and ``cycle[1..m]`` the partial
+    tour. Inserting ``u`` after position ``i`` (between ``a = cycle[i]`` and its
+    successor ``b``, the base after the last node) gains
+    ``P_t(a) P(a, u) beta(u)`` and discounts everything after ``a``, the
+    return's ``alpha`` included, by ``P(a, u) P(u, b) / P(a, b)``. Returns
+    ``[positions, nodes]`` scores, ``-inf`` where invalid. ``rows`` is
+    ``P[cycle]``, which :func:`_gi_tour` keeps up to date instead of gathering it.
     """
     k = jnp.arange(cycle.shape[0])
     inside = k <= m
     nxt = jnp.where(k < m, jnp.roll(cycle, -1), 0)
-    edge = jnp.where(inside, D[cycle, nxt], 0.0)
-    reach = jnp.cumsum(edge) - edge  # D_t(0, cycle[k])
-    collected = jnp.where((k >= 1) & inside, psi ** reach * beta[cycle], 0.0)
-    home = psi ** edge.sum() * beta[0]
+    p_au = P[cycle] if rows is None else rows
+    p_ub = jnp.where((k < m)[:, None], jnp.roll(p_au, -1, axis=0), P[0][None, :])  # P[nxt]
+    edge = jnp.where(inside, jnp.take_along_axis(p_au, nxt[:, None], axis=1)[:, 0], 1.0)
+    reach = jnp.cumprod(jnp.concatenate([jnp.ones((1,), edge.dtype), edge[:-1]]))  # P_t(cycle[k])
+    collected = jnp.where((k >= 1) & inside, reach * beta[cycle], 0.0)
+    home = jnp.prod(edge) * beta[0]
     after = collected.sum() - jnp.cumsum(collected) + home  # value of everything after position i
-    d_au = D[cycle]  # [i, u]
-    extra = d_au + D[:, nxt].T - D[cycle, nxt][:, None]
-    score = psi ** (reach[:, None] + d_au) * beta[None, :] - (1.0 - psi ** extra) * after[:, None]
+    # D is symmetric, so rows serve for both ends: P[a, u] and P[u, b] = P[b, u].
+    p_ab = jnp.maximum(edge, jnp.finfo(jnp.float32).tiny)[:, None]
+    score = reach[:, None] * p_au * beta[None, :] - (1.0 - p_au * p_ub / p_ab) * after[:, None]
     return jnp.where(inside[:, None] & mask[None, :], score, -jnp.inf)
 
 
@@ -85,21 +88,24 @@ def _gi_tour(D, beta, psi, mask):
     n = D.shape[0] - 1
     mask = jnp.asarray(mask, bool).at[0].set(False)
     k = jnp.arange(n + 1)
+    P = psi ** D
 
     def cond(st):
-        mask, _, m = st
+        mask, _, _, m = st
         return (m < n) & mask.any()
 
     def body(st):
-        mask, cycle, m = st
-        score = gi_scores(D, beta, psi, cycle, m, mask)
+        mask, cycle, rows, m = st
+        score = gi_scores(P, beta, cycle, m, mask, rows)
         best = jnp.argmax(score.T)  # lowest node first, then earliest position
         u, i = best // (n + 1), best % (n + 1)
-        shifted = jnp.roll(cycle, 1)
-        cycle = jnp.where(k <= i, cycle, jnp.where(k == i + 1, u, shifted))
-        return mask.at[u].set(False), cycle.astype(jnp.int32), m + 1
+        cycle = jnp.where(k <= i, cycle, jnp.where(k == i + 1, u, jnp.roll(cycle, 1)))
+        rows = jnp.where((k <= i)[:, None], rows, jnp.where((k == i + 1)[:, None], P[u][None, :],
+                                                            jnp.roll(rows, 1, axis=0)))
+        return mask.at[u].set(False), cycle.astype(jnp.int32), rows, m + 1
 
-    _, cycle, m = jax.lax.while_loop(cond, body, (mask, jnp.zeros((n + 1,), jnp.int32), jnp.int32(0)))
+    init = (mask, jnp.zeros((n + 1,), jnp.int32), jnp.broadcast_to(P[0], (n + 1, n + 1)), jnp.int32(0))
+    _, cycle, _, m = jax.lax.while_loop(cond, body, init)
     return jnp.where(k[1:] <= m, cycle[1:], -1)
 
 
