@@ -1,0 +1,151 @@
+"""Batched evaluation (jaxdc.dcp.evaluate), the Table 4.8 reproduction check, and the eval.dcp CLI."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+import types
+
+import jax
+import numpy as np
+import pytest
+
+from eval import dcp as cli
+from jaxdc.dcp.env import DCP
+from jaxdc.dcp.evaluate import evaluate_heuristic, summarize
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ENV = DCP(grid_size=5, total_reward=6, idle_terminates=True)
+PARAMS = ENV.make_params("high", (8.0, 16.0))
+
+
+def test_evaluate_deterministic_by_seed():
+    a = evaluate_heuristic(ENV, PARAMS, "safe_neither", jax.random.PRNGKey(0), 64)
+    b = evaluate_heuristic(ENV, PARAMS, "safe_neither", jax.random.PRNGKey(0), 64)
+    c = evaluate_heuristic(ENV, PARAMS, "safe_neither", jax.random.PRNGKey(1), 64)
+    for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    assert not np.array_equal(np.asarray(a.ep_reward), np.asarray(c.ep_reward)) or not np.array_equal(
+        np.asarray(a.ep_energy), np.asarray(c.ep_energy))
+    assert np.all(np.asarray(a.outcome) != 0)  # every episode ended
+    with pytest.raises(ValueError, match="policy"):
+        evaluate_heuristic(ENV, PARAMS, "nope", jax.random.PRNGKey(0), 4)
+    with pytest.raises(ValueError, match="episodes"):
+        evaluate_heuristic(ENV, PARAMS, "safe_neither", jax.random.PRNGKey(0), 0)
+
+
+def test_summarize_rpe_conventions():
+    batch = types.SimpleNamespace(
+        ep_reward=np.array([2.0, 1.0, 3.0, 0.0]),
+        ep_energy=np.array([4, 0, 2, 5]),
+        outcome=np.array([1, 3, 2, 1]),
+        time=np.array([4, 1, 2, 5]),
+    )
+    ex = summarize(batch, "exclude")
+    assert ex["reward"]["mean"] == pytest.approx(1.5) and ex["reward"]["sd"] == pytest.approx(math.sqrt(1.25))
+    assert ex["energy"]["mean"] == pytest.approx(11 / 4)
+    assert ex["rpe"]["mean"] == pytest.approx((0.5 + 1.5 + 0.0) / 3)
+    assert ex["rpe"]["sd"] == pytest.approx(np.std([0.5, 1.5, 0.0]))
+    zero = summarize(batch, "zero")
+    assert zero["rpe"]["mean"] == pytest.approx(0.5)
+    assert ex["episodes"] == 4
+    assert ex["outcomes"] == {"risk": 2, "energy": 1, "cleared": 1, "idle": 0, "truncated": 0}
+    with pytest.raises(ValueError, match="rpe_zero"):
+        summarize(batch, "drop")
+
+
+def test_table_4_8_safe_neither_reproduction():
+    env = DCP(total_reward=1, idle_terminates=True)
+    params = env.make_params("high", (8.0, 16.0))
+    m = 4000
+    final = evaluate_heuristic(env, params, "safe_neither", jax.random.PRNGKey(0), m)
+    reward = np.asarray(final.ep_reward)
+    mean = reward.mean()
+    se = math.sqrt(0.55 * 0.45 / m)
+    assert abs(mean - 0.55) < 4 * se, f"Safe-Neither reward {mean:.4f}, thesis 0.55 (4 SE = {4 * se:.4f})"
+
+
+# ----------------------------------------------------------------------------------------------
+# CLI
+# ----------------------------------------------------------------------------------------------
+
+KEYS = {"reward", "energy", "rpe", "episodes", "outcomes"}
+
+
+def test_cli_json_in_process(capsys):
+    assert cli.main(["--policy", "safe_neither", "--episodes", "200", "--json", "--grid-size", "5",
+                     "--total-reward", "6"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("\n") == 1
+    obj = json.loads(out)
+    assert KEYS <= set(obj) and obj["episodes"] == 200
+    assert sum(obj["outcomes"].values()) == 200
+
+
+def test_cli_json_subprocess():
+    r = subprocess.run([sys.executable, "-m", "eval.dcp", "--policy", "safe_neither", "--episodes", "200", "--json",
+                        "--grid-size", "5", "--total-reward", "6"],
+                       cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    lines = [ln for ln in r.stdout.splitlines() if ln.strip()]
+    assert len(lines) == 1
+    obj = json.loads(lines[0])
+    assert KEYS <= set(obj) and obj["episodes"] == 200
+
+
+@pytest.mark.parametrize(
+    "argv, word",
+    [
+        (["--episodes", "0"], "--episodes"),
+        (["--energy", "-1", "5"], "energy"),
+        (["--energy", "9", "8"], "energy"),
+        (["--risk", "extreme"], "--risk"),
+        (["--policy", "nope"], "--policy"),
+    ],
+)
+def test_cli_bad_args_exit_2(argv, word, capsys):
+    with pytest.raises(SystemExit) as e:
+        cli.main(argv + ["--json"])
+    assert e.value.code == 2
+    assert word in capsys.readouterr().err
+
+
+def test_cli_bad_risk_map_file(tmp_path, capsys):
+    bad = tmp_path / "bad.npy"
+    np.save(bad, np.full((5, 5), 0.5, np.float32))  # base risk != 0
+    for path in (str(bad), str(tmp_path / "missing.npy")):
+        with pytest.raises(SystemExit) as e:
+            cli.main(["--risk-map", path, "--episodes", "10", "--json"])
+        assert e.value.code == 2
+        assert "--risk-map" in capsys.readouterr().err
+    garbage = tmp_path / "g.json"
+    garbage.write_text("{not json")
+    with pytest.raises(SystemExit) as e:
+        cli.main(["--risk-map", str(garbage), "--episodes", "10", "--json"])
+    assert e.value.code == 2 and "--risk-map" in capsys.readouterr().err
+
+
+def test_cli_risk_map_file_works(tmp_path, capsys):
+    r = np.full((5, 5), 0.05, np.float32)
+    r[0, 0] = 0
+    f = tmp_path / "map.npy"
+    np.save(f, r)
+    assert cli.main(["--risk-map", str(f), "--policy", "safe_neither", "--episodes", "50", "--total-reward", "6",
+                     "--json"]) == 0
+    obj = json.loads(capsys.readouterr().out)
+    assert obj["episodes"] == 50 and KEYS <= set(obj)
+
+
+def test_cli_table_4_8_writes_results(tmp_path, capsys):
+    assert cli.main(["--table", "4.8", "--episodes", "300", "--out", str(tmp_path)]) == 0
+    js, md = tmp_path / "table_4.8.json", tmp_path / "table_4.8.md"
+    assert js.exists() and md.exists()
+    data = json.loads(js.read_text())
+    assert {"thesis", "ours"} <= set(data)
+    assert set(data["ours"]) == {"safe_reward", "safe_recharge", "safe_both", "safe_neither"}
+    assert data["thesis"]["safe_neither"][0] == 0.55
+    assert all(v["episodes"] == 300 for v in data["ours"].values())
+    assert "safe_neither" in md.read_text()
