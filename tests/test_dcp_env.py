@@ -335,9 +335,8 @@ def test_invariants_random_actions(seed, risk, init_e, extra, infinite):
     assert np.all(np.asarray(states.ep_reward) + np.asarray(states.items).sum((1, 2)) == INV_ENV.total_reward)
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: a non-integer energy accepted by make_params goes negative "
-                                       "(0.5 - 1 = -0.5) instead of staying in [0, max]")
 def test_energy_never_negative_with_fractional_energy():
+    # energy is clamped at 0 when the agent is disabled by it (a fractional budget must not go negative)
     p = ENV.make_params(risk_with(4), (0.5, 1.0))
     s = make_state(ENV, (1, 1), 0.5, {(3, 3): 1})
     _, s2, _, term, _, _ = step(s, A["stay"], p)

@@ -218,7 +218,7 @@ class DCP(Environment[EnvState, EnvParams]):
         hit = jax.random.uniform(key) < params.risk[pos[0], pos[1]]
         in_base = jnp.all(pos == 0)
         was_in_base = jnp.all(state.pos == 0)
-        energy = jnp.where(in_base, params.max_energy, state.energy - 1.0)
+        energy = jnp.where(in_base, params.max_energy, jnp.maximum(state.energy - 1.0, 0.0))
         out_of_energy = jnp.logical_and(~in_base, energy <= 0)
         cleared = jnp.all(items <= 0)
         if self.energy_metric == "not_stay_in_base":
