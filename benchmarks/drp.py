@@ -1,0 +1,191 @@
+"""DRP speed: jaxdc's jitted planners against a plain NumPy implementation of the same algorithms.
+
+    python -m benchmarks.drp [--nodes 100] [--fig-graphs 2] [--fig-alphas 0,20,40,60] [--json]
+
+1. One ``--nodes`` graph (thesis set-up, alpha = 20): every builder x clustering,
+   jaxdc (first call with compilation, then warm) against the NumPy reference.
+2. The figure-3.1 experiment on ``--fig-graphs`` graphs x ``--fig-alphas``
+   (all 12 combinations), both ways; the full experiment (100 graphs x 17
+   alphas) is extrapolated linearly in the number of instances and said so.
+
+The reference uses the same formulas (Eqs. 3.2-3.8), NumPy-vectorised over
+candidates within a step, Python loops over steps, NC re-evaluating only pairs
+with the new cluster, and the same PGC (``jaxdc.drp.clustering.pgc`` is
+already plain NumPy/Python).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+import numpy as np
+
+# ----------------------------------------------------------------------------- NumPy reference
+
+
+def np_scores(criterion, P, beta, end, p_end, mask):
+    """Eqs. 3.2-3.7 for every candidate, NumPy (higher is better)."""
+    p_next = P[end]
+    gain = p_end * p_next * beta
+    after = p_end * p_next[:, None] * P * beta[None, :]
+    delta = gain[None, :] - after
+    other = mask[None, :] & mask[:, None] & ~np.eye(len(mask), dtype=bool)
+    if criterion == "ng":
+        s = gain
+    elif criterion == "osa":
+        two = np.where(other, after, -np.inf).max(1)
+        s = gain + np.where(np.isfinite(two), two, 0.0)
+    elif criterion == "tl":
+        s = -np.where(other, delta, 0.0).sum(1)
+    elif criterion == "gml":
+        ml = np.where(other, delta, np.inf).min(1)
+        s = gain - np.where(np.isfinite(ml), ml, 0.0)
+    else:  # lpg
+        tot = np.where(other, delta, 0.0).sum(1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = -np.where(gain > 0, tot / np.where(gain > 0, gain, 1.0), np.finfo(np.float32).max)
+    return np.where(mask, s, -np.inf)
+
+
+def np_tour(criterion, P, beta, nodes):
+    """Algorithm 2 over ``nodes``; returns (tour, reward)."""
+    mask = np.zeros(len(beta), bool)
+    mask[nodes] = True
+    tour = []
+    if criterion == "gi":
+        for _ in range(len(nodes)):
+            cyc = [0] + tour
+            nxt = tour + [0]
+            edge = P[cyc, nxt]
+            reach = np.concatenate([[1.0], np.cumprod(edge)[:-1]])
+            col = reach * beta[cyc]
+            col[0] = 0.0
+            after = col.sum() - np.cumsum(col) + np.prod(edge) * beta[0]
+            pa, pb = P[cyc], P[nxt]
+            s = reach[:, None] * pa * beta[None, :] - (1 - pa * pb / edge[:, None]) * after[:, None]
+            s = np.where(mask[None, :], s, -np.inf)
+            best = int(np.argmax(s.T))
+            u, i = divmod(best, len(cyc))
+            tour.insert(i, u)
+            mask[u] = False
+    else:
+        end, p_end = 0, 1.0
+        for _ in range(len(nodes)):
+            u = int(np.argmax(np_scores(criterion, P, beta, end, p_end, mask)))
+            tour.append(u)
+            p_end *= P[end, u]
+            end = u
+            mask[u] = False
+    r, prev, g = 1.0, 0, 0.0
+    for v in tour:
+        r *= P[prev, v]
+        g += r * beta[v]
+        prev = v
+    return tour, g + r * P[prev, 0] * beta[0] - beta[0]
+
+
+def np_nc(criterion, P, beta):
+    """Algorithm 1 with BuildTour' as evaluator; only pairs with the new cluster are re-evaluated."""
+    n = len(beta) - 1
+    S = {v: [v] for v in range(1, n + 1)}
+    R = {v: np_tour(criterion, P, beta, [v])[1] for v in S}
+    pair = {(a, b): np_tour(criterion, P, beta, [a, b])[1] for a in S for b in S if a < b}
+    while True:
+        best, arg = 0.0, None
+        for (a, b), r in sorted(pair.items()):
+            d = r - R[a] - R[b]
+            if d > best:
+                best, arg = d, (a, b)
+        if arg is None:
+            return list(S.values())
+        a, b = arg
+        S[a] = sorted(S[a] + S.pop(b))
+        R[a] = pair[(a, b)]
+        pair = {k: v for k, v in pair.items() if a not in k and b not in k}
+        for o in S:
+            if o != a:
+                lo, hi = min(a, o), max(a, o)
+                pair[(lo, hi)] = np_tour(criterion, P, beta, S[lo] + S[hi])[1]
+
+
+def np_solve(builder, clustering, D, beta, psi, alpha):
+    from jaxdc.drp.clustering import pgc
+
+    beta = np.asarray(beta, np.float64).copy()
+    beta[0] = alpha
+    P = float(psi) ** np.asarray(D, np.float64)
+    clusters = np_nc(builder, P, beta) if clustering == "nc" else pgc(D, beta, psi, alpha)[0]
+    rewards = [np_tour(builder, P, beta, c)[1] for c in clusters]
+    return sum(r for r in rewards if r > 0)
+
+
+# ----------------------------------------------------------------------------- benchmark
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--nodes", type=int, default=100)
+    p.add_argument("--alpha", type=float, default=20.0)
+    p.add_argument("--fig-graphs", type=int, default=2)
+    p.add_argument("--fig-nodes", type=int, default=100)
+    p.add_argument("--fig-alphas", default="0,20,40,60")
+    p.add_argument("--skip-reference-nc", action="store_true", help="skip the slow NumPy NC solves")
+    p.add_argument("--json", action="store_true")
+    args = p.parse_args(argv)
+
+    from eval.drp import graph_arrays, run_experiment, solve_instances
+    from jaxdc.drp import world
+    from jaxdc.drp.tours import BUILDERS
+
+    g = world.generate(0, n=args.nodes, alpha=args.alpha)
+    D, beta, psi = graph_arrays([g])
+    Dn, bn = np.asarray(D[0], np.float64), np.asarray(beta[0], np.float64)
+    solves = []
+    for c in ("nc", "pgc"):
+        for b in BUILDERS:
+            t0 = time.perf_counter()
+            (r1, _), = solve_instances(b, c, D, beta, psi, [0], [args.alpha])
+            first = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            (r2, _), = solve_instances(b, c, D, beta, psi, [0], [args.alpha])
+            warm = time.perf_counter() - t0
+            row = {"builder": b, "clustering": c, "jax_first_s": first, "jax_warm_s": warm, "reward": r2}
+            if not (c == "nc" and args.skip_reference_nc):
+                t0 = time.perf_counter()
+                rr = np_solve(b, c, Dn, bn, 0.99, args.alpha)
+                row["numpy_s"] = time.perf_counter() - t0
+                row["numpy_reward"] = rr
+                row["speedup_warm"] = row["numpy_s"] / warm
+            solves.append(row)
+            if not args.json:
+                print(json.dumps(row), file=sys.stderr)
+
+    alphas = [float(a) for a in args.fig_alphas.split(",")]
+    t0 = time.perf_counter()
+    run_experiment("4-6", args.fig_graphs, args.fig_nodes, alphas, "corner", 0, BUILDERS, ("nc", "pgc"), quiet=True)
+    jax_fig = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    gs = [world.generate(i, n=args.fig_nodes) for i in range(args.fig_graphs)]
+    for gg in gs:
+        Dg, bg, _ = world.arrays(gg)
+        for a in alphas:
+            for c in ("nc", "pgc"):
+                for b in BUILDERS:
+                    np_solve(b, c, np.asarray(Dg, np.float64), np.asarray(bg, np.float64), 0.99, a)
+    np_fig = time.perf_counter() - t0
+    inst = args.fig_graphs * len(alphas)
+    full = 100 * 17
+    out = {"nodes": args.nodes, "alpha": args.alpha, "solves": solves,
+           "figure_3_1_reduced": {"graphs": args.fig_graphs, "nodes": args.fig_nodes, "alphas": alphas,
+                                  "jax_s": jax_fig, "numpy_s": np_fig, "speedup": np_fig / jax_fig,
+                                  "jax_extrapolated_full_s": jax_fig * full / inst,
+                                  "numpy_extrapolated_full_s": np_fig * full / inst,
+                                  "note": "full = 100 graphs x 17 alphas, linear extrapolation incl. one-off compile"}}
+    print(json.dumps(out) if args.json else json.dumps(out, indent=1))
+
+
+if __name__ == "__main__":
+    main()
