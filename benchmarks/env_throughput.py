@@ -1,0 +1,319 @@
+"""Environment throughput of the DCP: JAX (vmap + scan + jit) vs a NumPy single-env loop.
+
+Usage::
+
+    python benchmarks/env_throughput.py [--json] [--batch-sizes 1 64 1024 4096 16384] [--steps N]
+                                        [--quick] [--no-prng] [--no-table43]
+
+Measures env-steps/s, all in one process so that the ratios are taken side by side:
+
+* ``jax_random``: a uniformly random policy with auto-reset (``env.step``, vmapped
+  over the batch, inside ``lax.scan`` over T steps, jitted);
+* ``jax_safe_reward``: the Safe-Reward navigator (Algorithm 9) acting on the batched
+  states, stepping with auto-reset (the safest-path table is computed once, untimed);
+* ``numpy_random``: :mod:`benchmarks.numpy_dcp`, one environment, Python loop, random
+  policy (a NumPy Safe-Reward row is not provided: it would need a NumPy port of the
+  LPG planner, Algorithm 7, which is out of scope for a baseline);
+* ``jax_random [unsafe_rbg]``: ``jax_random`` once more at one batch size, in a
+  subprocess with ``jax_default_prng_impl = "unsafe_rbg"`` (not the default);
+* Table 4.3: the four navigators x 10,000 episodes with ``evaluate_heuristic`` on
+  ``DCP(total_reward=30, idle_terminates=True)``, high risk, energy (8, 16),
+  ``max_steps=200``: compile time and run time after compilation, separately.
+
+JAX timings: one warm-up call (compile), then the best of ``--repeats`` calls, each
+ended by ``block_until_ready``. Results are printed as a Markdown table (or, with
+``--json``, as exactly one JSON object on stdout; progress goes to stderr) and written
+atomically to ``results/benchmarks/env_throughput.{json,md}``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script from anywhere
+    sys.path.insert(0, str(ROOT))
+
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+from benchmarks import numpy_dcp  # noqa: E402
+from jaxdc.core.paths import safest_paths  # noqa: E402
+from jaxdc.dcp import navigators  # noqa: E402
+from jaxdc.dcp.env import DCP  # noqa: E402
+from jaxdc.dcp.evaluate import evaluate_heuristic  # noqa: E402
+
+DEFAULT_BATCH_SIZES = (1, 64, 1024, 4096, 16384)
+TABLE43_NAVIGATORS = ("safe_reward", "safe_recharge", "safe_both", "safe_neither")
+RESULTS_DIR = ROOT / "results" / "benchmarks"
+#: Targets of the issue.
+TARGET_RANDOM_4096 = 5e6  # steps/s
+TARGET_RATIO_NUMPY = 10.0
+TARGET_TABLE43_S = 5.0
+
+
+def log(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+def make_env():
+    """The benchmarked configuration (Table 4.3's): 8x8, 30 units, high risk, energy (8, 16)."""
+    env = DCP(grid_size=8, total_reward=30)
+    return env, env.make_params("high", (8.0, 16.0), max_steps=200)
+
+
+def _time_best(fn, repeats: int) -> tuple[float, float]:
+    """``(first_call_s, best_s)``: the first call compiles; best of ``repeats`` afterwards."""
+    t0 = time.perf_counter()
+    jax.block_until_ready(fn())
+    first = time.perf_counter() - t0
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        jax.block_until_ready(fn())
+        best = min(best, time.perf_counter() - t0)
+    return first, best
+
+
+def make_rollout(env, params, batch: int, steps: int, policy: str):
+    """A jitted ``rollout(key) -> (final state, total reward)`` of ``steps`` auto-reset steps."""
+    table = safest_paths(params.risk) if policy == "safe_reward" else None
+
+    def act(key, state):
+        if policy == "random":
+            return jax.random.randint(key, (batch,), 0, env.num_actions)
+        return jax.vmap(lambda s: navigators.navigator_action("safe_reward", s, table))(state)
+
+    step = jax.vmap(env.step, in_axes=(0, 0, 0, None))
+
+    @jax.jit
+    def rollout(key):
+        k_reset, k_loop = jax.random.split(key)
+        obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(k_reset, batch), params)
+
+        def body(carry, _):
+            key, obs, state, total = carry
+            key, k_act, k_step = jax.random.split(key, 3)
+            action = act(k_act, state)
+            obs, state, reward, _, _, _ = step(jax.random.split(k_step, batch), state, action, params)
+            return (key, obs, state, total + reward.sum()), None
+
+        carry, _ = jax.lax.scan(body, (k_loop, obs, state, jnp.float32(0.0)), None, length=steps)
+        # Return the observation too, so that computing it is never optimised away.
+        return carry[1], carry[2], carry[3]
+
+    return rollout
+
+
+def bench_jax(policy: str, batch: int, steps: int, repeats: int, seed: int = 0) -> dict:
+    env, params = make_env()
+    rollout = make_rollout(env, params, batch, steps, policy)
+    key = jax.random.key(seed)
+    first, best = _time_best(lambda: rollout(key), repeats)
+    n = batch * steps
+    return {"impl": f"jax_{policy}", "batch": batch, "steps": steps, "env_steps": n,
+            "seconds": best, "compile_s": max(first - best, 0.0), "steps_per_s": n / best}
+
+
+def bench_numpy(steps: int, repeats: int, seed: int = 0) -> dict:
+    env = numpy_dcp.NumpyDCP(risk="high", energy=(8.0, 16.0), max_steps=200)
+    best = math.inf
+    for r in range(repeats):
+        rng = np.random.default_rng(seed + r)
+        t0 = time.perf_counter()
+        numpy_dcp.random_rollout(env, rng, steps)
+        best = min(best, time.perf_counter() - t0)
+    return {"impl": "numpy_random", "batch": 1, "steps": steps, "env_steps": steps,
+            "seconds": best, "compile_s": 0.0, "steps_per_s": steps / best}
+
+
+def bench_prng_subprocess(impl: str, batch: int, steps: int, repeats: int) -> dict:
+    """``jax_random`` at ``batch`` in a fresh interpreter with another default PRNG."""
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--_prng-child", impl,
+           "--batch-sizes", str(batch), "--steps", str(steps), "--repeats", str(repeats)]
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd=ROOT)
+    row = json.loads(out.stdout)
+    row["impl"] = f"jax_random [{impl}]"
+    return row
+
+
+def bench_table43(episodes: int, repeats: int, names=TABLE43_NAVIGATORS, seed: int = 0) -> dict:
+    """Table 4.3: 4 navigators x ``episodes`` with ``evaluate_heuristic`` (compile vs run)."""
+    env = DCP(total_reward=30, idle_terminates=True)
+    params = env.make_params("high", (8, 16), max_steps=200)
+    key = jax.random.key(seed)
+    per = {}
+    for name in names:
+        first, best = _time_best(lambda: evaluate_heuristic(env, params, name, key, episodes), repeats)
+        steps = int(np.asarray(evaluate_heuristic(env, params, name, key, episodes).time).sum())
+        per[name] = {"compile_s": max(first - best, 0.0), "run_s": best, "episode_steps": steps}
+        log(f"  table 4.3 {name}: compile {per[name]['compile_s']:.2f} s, run {best:.3f} s")
+    return {
+        "episodes": episodes,
+        "navigators": per,
+        "compile_s": sum(p["compile_s"] for p in per.values()),
+        "run_s": sum(p["run_s"] for p in per.values()),
+    }
+
+
+def steps_for(batch: int, steps: int | None, quick: bool) -> int:
+    """Scan length: ``--steps`` if given, else enough for ~2M env-steps per call (at most 2000)."""
+    if steps is not None:
+        return steps
+    target = 20_000 if quick else 2_000_000
+    return int(min(2000, max(100, math.ceil(target / batch))))
+
+
+def run(args) -> dict:
+    repeats = args.repeats if args.repeats is not None else (1 if args.quick else 3)
+    rows = []
+    for policy in ("random", "safe_reward"):
+        # --quick: Safe-Reward only at the smallest batch size (each size is one more compile)
+        sizes = [min(args.batch_sizes)] if (args.quick and policy == "safe_reward") else args.batch_sizes
+        for b in sizes:
+            t = steps_for(b, args.steps, args.quick)
+            if policy == "safe_reward":
+                t = max(1, t // 4) if args.steps is None else t  # ~4x slower per step
+            row = bench_jax(policy, b, t, repeats)
+            log(f"{row['impl']:>16} B={b:<6} T={t:<5} {row['steps_per_s']:>14,.0f} steps/s "
+                f"(compile {row['compile_s']:.2f} s)")
+            rows.append(row)
+    np_steps = args.numpy_steps or (2_000 if args.quick else 50_000)
+    row = bench_numpy(np_steps, repeats)
+    log(f"{row['impl']:>16} B=1      T={np_steps:<5} {row['steps_per_s']:>14,.0f} steps/s")
+    rows.append(row)
+    if not (args.no_prng or args.quick):
+        b = 4096 if 4096 in args.batch_sizes else max(args.batch_sizes)
+        row = bench_prng_subprocess("unsafe_rbg", b, steps_for(b, args.steps, args.quick), repeats)
+        log(f"{row['impl']:>16} B={b:<6} {row['steps_per_s']:>14,.0f} steps/s")
+        rows.append(row)
+
+    numpy_rate = next(r["steps_per_s"] for r in rows if r["impl"] == "numpy_random")
+    for r in rows:
+        r["vs_numpy"] = r["steps_per_s"] / numpy_rate
+
+    result = {
+        "benchmark": "dcp_env_throughput",
+        "config": {"grid_size": 8, "total_reward": 30, "risk": "high", "energy": [8.0, 16.0],
+                   "max_steps": 200, "repeats": repeats, "quick": bool(args.quick)},
+        "machine": {"jax": jax.__version__, "backend": jax.default_backend(),
+                    "devices": [str(d) for d in jax.devices()], "cpu_count": os.cpu_count(),
+                    "python": platform.python_version(), "platform": platform.platform()},
+        "rows": rows,
+        "numpy_safe_reward": "skipped: needs a NumPy port of the LPG planner (Algorithm 7)",
+    }
+    if not args.no_table43:
+        episodes = args.episodes or (64 if args.quick else 10_000)
+        navs = TABLE43_NAVIGATORS[:1] if args.quick else TABLE43_NAVIGATORS
+        result["table43"] = bench_table43(episodes, repeats, navs)
+    result["targets"] = targets(result)
+    return result
+
+
+def targets(result: dict) -> dict:
+    out = {}
+    at4096 = [r for r in result["rows"] if r["impl"] == "jax_random" and r["batch"] == 4096]
+    if at4096:
+        rate, ratio = at4096[0]["steps_per_s"], at4096[0]["vs_numpy"]
+        out["random_4096_ge_5M"] = {"value": rate, "target": TARGET_RANDOM_4096, "met": rate >= TARGET_RANDOM_4096}
+        out["random_4096_ge_10x_numpy"] = {"value": ratio, "target": TARGET_RATIO_NUMPY,
+                                           "met": ratio >= TARGET_RATIO_NUMPY}
+    t43 = result.get("table43")
+    if t43 and t43["episodes"] == 10_000 and tuple(t43["navigators"]) == TABLE43_NAVIGATORS:
+        out["table43_lt_5s"] = {"value": t43["run_s"], "target": TARGET_TABLE43_S,
+                                "met": t43["run_s"] < TARGET_TABLE43_S}
+    return out
+
+
+def markdown(result: dict) -> str:
+    lines = ["| implementation | batch | T | env-steps/s | vs NumPy | compile (s) |",
+             "|---|---:|---:|---:|---:|---:|"]
+    for r in result["rows"]:
+        lines.append(f"| {r['impl']} | {r['batch']} | {r['steps']} | {r['steps_per_s']:,.0f} | "
+                     f"{r['vs_numpy']:.1f}x | {r['compile_s']:.2f} |")
+    lines.append(f"| numpy_safe_reward | - | - | - | - | {result['numpy_safe_reward']} |")
+    t43 = result.get("table43")
+    if t43:
+        lines += ["", f"Table 4.3 ({len(t43['navigators'])} navigators x {t43['episodes']} episodes, "
+                  "`evaluate_heuristic`):", "",
+                  "| navigator | compile (s) | run after compile (s) | env-steps |", "|---|---:|---:|---:|"]
+        for name, p in t43["navigators"].items():
+            lines.append(f"| {name} | {p['compile_s']:.2f} | {p['run_s']:.3f} | {p['episode_steps']:,} |")
+        lines.append(f"| **total** | {t43['compile_s']:.2f} | {t43['run_s']:.3f} | |")
+    if result["targets"]:
+        lines += ["", "Targets:", ""]
+        for name, t in result["targets"].items():
+            lines.append(f"- {name}: {t['value']:,.3f} (target {t['target']:,}) -> "
+                         f"{'met' if t['met'] else 'NOT met'}")
+    m = result["machine"]
+    lines += ["", f"jax {m['jax']} on {m['backend']} ({m['cpu_count']} CPUs), {m['platform']}"]
+    return "\n".join(lines)
+
+
+def write_atomic(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def parse_args(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
+    p.add_argument("--batch-sizes", type=int, nargs="+", default=list(DEFAULT_BATCH_SIZES))
+    p.add_argument("--steps", type=int, default=None,
+                   help="scan length T (default: ~2M env-steps per call, 100..2000)")
+    p.add_argument("--repeats", type=int, default=None, help="timed repeats, best taken (default 3)")
+    p.add_argument("--numpy-steps", type=int, default=None, help="NumPy loop steps (default 50,000)")
+    p.add_argument("--episodes", type=int, default=None, help="Table 4.3 episodes (default 10,000)")
+    p.add_argument("--quick", action="store_true",
+                   help="tiny settings for smoke tests: 1 repeat, Safe-Reward only at the smallest batch, "
+                        "no PRNG subprocess, Table 4.3 with safe_reward x 64 episodes")
+    p.add_argument("--no-prng", action="store_true", help="skip the unsafe_rbg subprocess row")
+    p.add_argument("--no-table43", action="store_true", help="skip the Table 4.3 timing")
+    p.add_argument("--out-dir", type=Path, default=RESULTS_DIR)
+    p.add_argument("--_prng-child", dest="prng_child", default=None, help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+    if any(b < 1 for b in args.batch_sizes) or (args.steps is not None and args.steps < 1):
+        p.error("batch sizes and --steps must be >= 1")
+    return args
+
+
+def main(argv=None) -> dict:
+    args = parse_args(argv)
+    if args.prng_child:  # internal: one jax_random row under another default PRNG
+        jax.config.update("jax_default_prng_impl", args.prng_child)
+        b = args.batch_sizes[0]
+        row = bench_jax("random", b, steps_for(b, args.steps, False), args.repeats or 3)
+        print(json.dumps(row))
+        return row
+    result = run(args)
+    md = markdown(result)
+    write_atomic(args.out_dir / "env_throughput.json", json.dumps(result, indent=2) + "\n")
+    write_atomic(args.out_dir / "env_throughput.md", md + "\n")
+    if args.json:
+        print(json.dumps(result))
+        log(md)
+    else:
+        print(md)
+    return result
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,138 @@
+"""Smoke test of benchmarks/env_throughput.py and the rules of the NumPy DCP baseline."""
+
+from __future__ import annotations
+
+import json
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from benchmarks import env_throughput, numpy_dcp
+from jaxdc.dcp.env import CLEARED, DCP, ENERGY, IDLE, RISK, RUNNING, TRUNCATED
+
+UP, UP_LEFT, RIGHT, STAY = 1, 5, 4, 0
+
+
+def _env(risk=None, **kw):
+    risk = np.zeros((8, 8), np.float32) if risk is None else risk
+    return numpy_dcp.NumpyDCP(risk=risk, energy=(8.0, 16.0), **kw)
+
+
+def _set(env, pos, energy, items):
+    env.pos = np.array(pos, np.int64)
+    env.energy = float(energy)
+    env.items = np.zeros((8, 8))
+    for (r, c), v in items.items():
+        env.items[r, c] = v
+    env.time, env.outcome, env.ep_reward, env.ep_energy = 0, RUNNING, 0.0, 0
+
+
+def _jax_step(env, action):
+    """The same transition with the JAX env (zero/one risks make it deterministic)."""
+    jenv = DCP(total_reward=30, idle_terminates=env.idle_terminates)
+    params = jenv.make_params(env.risk.astype(np.float32), (8.0, 16.0), max_steps=env.max_steps)
+    _, state = jenv.reset_env(jax.random.key(0), params)  # then overwrite the fields the rules read
+    state = state.replace(pos=jnp.asarray(env.pos, jnp.int32), energy=jnp.float32(env.energy),
+                          items=jnp.asarray(env.items, jnp.float32), time=jnp.int32(env.time),
+                          outcome=jnp.int32(RUNNING), ep_reward=jnp.float32(0), ep_energy=jnp.int32(0))
+    _, s, reward, term, trunc, _ = jenv.step_env(jax.random.key(0), state, action, params)
+    return s, float(reward), bool(term), bool(trunc)
+
+
+def test_numpy_collect_clip_and_agreement_with_jax():
+    env, rng = _env(), np.random.default_rng(0)
+    _set(env, (2, 2), 5, {(1, 1): 3.0, (5, 5): 1.0})
+    js, jr, jterm, jtrunc = _jax_step(env, UP_LEFT)
+    obs, reward, term, trunc = env.step_env(rng, UP_LEFT)
+    assert reward == 3.0 == jr and not term and not trunc and not jterm
+    assert env.pos.tolist() == [1, 1] == np.asarray(js.pos).tolist()
+    assert env.energy == 4.0 == float(js.energy) and env.items[1, 1] == 0 and env.ep_energy == 1
+    np.testing.assert_array_equal(env.items, np.asarray(js.items))
+    assert obs[1, 1, 1] == 4.0 and obs[..., 1].sum() == 4.0 and obs[5, 5, 0] == 1.0
+    # Clipped per axis: up_left on the top edge still moves left.
+    _set(env, (0, 3), 5, {(5, 5): 1.0})
+    env.step_env(rng, UP_LEFT)
+    assert env.pos.tolist() == [0, 2]
+
+
+def test_numpy_base_refill_idle_energy_risk_cleared_truncated():
+    rng = np.random.default_rng(0)
+    env = _env(idle_terminates=True)
+    _set(env, (1, 1), 1, {(5, 5): 1.0})  # energy 1, but entering the base refills
+    _, _, term, _ = env.step_env(rng, UP_LEFT)
+    assert env.pos.tolist() == [0, 0] and env.energy == 16.0 and not term and env.ep_energy == 1
+    _, _, term, _ = env.step_env(rng, STAY)  # stays in the base: no energy used, state unchanged
+    assert term and env.outcome == IDLE and env.ep_energy == 1
+
+    _set(env, (3, 3), 1, {(5, 5): 1.0})
+    js = _jax_step(env, RIGHT)[0]
+    _, _, term, _ = env.step_env(rng, RIGHT)
+    assert term and env.outcome == ENERGY == int(js.outcome)
+
+    risk = np.zeros((8, 8), np.float32)
+    risk[2, 3] = 1.0
+    env = _env(risk)
+    _set(env, (3, 3), 5, {(5, 5): 1.0})
+    js = _jax_step(env, UP)[0]
+    _, _, term, _ = env.step_env(rng, UP)
+    assert term and env.outcome == RISK == int(js.outcome)
+
+    _set(env, (4, 4), 5, {(5, 5): 2.0})
+    _, reward, term, _ = env.step_env(rng, 8)  # down_right onto the last item
+    assert term and reward == 2.0 and env.outcome == CLEARED and env.ep_reward == 2.0
+
+    env = _env(max_steps=1)
+    _set(env, (4, 4), 5, {(6, 6): 1.0})
+    _, _, term, trunc = env.step_env(rng, STAY)
+    assert trunc and not term and env.outcome == TRUNCATED
+
+
+def test_numpy_reset_and_auto_reset():
+    rng = np.random.default_rng(1)
+    env = _env(items_on_base=False)
+    for _ in range(20):
+        env.reset(rng)
+        assert env.items.sum() == 30 and env.items[0, 0] == 0
+        assert env.items[env.pos[0], env.pos[1]] == 0  # random_free start
+    risk = np.ones((8, 8), np.float32)
+    risk[0, 0] = 0.0
+    env = _env(risk)
+    env.reset(rng)
+    if env.pos.tolist() == [0, 0]:
+        env.pos = np.array([1, 1])
+    obs, _, term, _, final = env.step(rng, RIGHT)  # certain risk -> auto-reset
+    assert term and env.time == 0 and env.outcome == RUNNING and obs[..., 0].sum() == 30
+    assert final is not obs
+
+
+def test_benchmark_main_quick(tmp_path, capsys):
+    result = env_throughput.main(["--json", "--batch-sizes", "1", "4", "--steps", "5", "--quick",
+                                  "--no-table43", "--out-dir", str(tmp_path)])
+    out = capsys.readouterr().out.strip()
+    assert json.loads(out) == json.loads(json.dumps(result))  # exactly one JSON object on stdout
+    impls = [(r["impl"], r["batch"]) for r in result["rows"]]
+    assert impls == [("jax_random", 1), ("jax_random", 4), ("jax_safe_reward", 1), ("numpy_random", 1)]
+    for r in result["rows"]:
+        assert r["steps_per_s"] > 0 and r["env_steps"] == r["batch"] * r["steps"]
+        assert set(r) >= {"impl", "batch", "steps", "seconds", "compile_s", "steps_per_s", "vs_numpy"}
+    assert json.loads((tmp_path / "env_throughput.json").read_text())["rows"] == result["rows"]
+    md = (tmp_path / "env_throughput.md").read_text()
+    assert md.startswith("| implementation | batch | T | env-steps/s |") and md.count("| jax_random |") == 2
+    assert not list(tmp_path.glob("*.tmp"))
+
+    # The Table 4.3 and target sections, on a synthetic result (compiling them costs ~20 s).
+    fake = dict(result)
+    fake["rows"] = result["rows"] + [dict(result["rows"][1], batch=4096)]
+    fake["table43"] = {"episodes": 10_000, "compile_s": 4.0, "run_s": 2.0,
+                       "navigators": {n: {"compile_s": 1.0, "run_s": 0.5, "episode_steps": 10}
+                                      for n in env_throughput.TABLE43_NAVIGATORS}}
+    fake["targets"] = env_throughput.targets(fake)
+    assert fake["targets"]["table43_lt_5s"]["met"] and "random_4096_ge_5M" in fake["targets"]
+    md = env_throughput.markdown(fake)
+    assert "| **total** | 4.00 | 2.000 |" in md and "table43_lt_5s" in md
+
+
+if __name__ == "__main__":
+    raise SystemExit(pytest.main([__file__, "-q"]))
