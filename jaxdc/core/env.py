@@ -84,5 +84,13 @@ class Environment(Generic[S, P]):
 
 
 def tree_select(pred, on_true: Any, on_false: Any):
-    """``jnp.where(pred, a, b)`` leaf by leaf over two pytrees of the same structure."""
-    return jax.tree_util.tree_map(lambda a, b: jnp.where(pred, a, b), on_true, on_false)
+    """``jnp.where(pred, a, b)`` leaf by leaf over two pytrees of the same structure.
+
+    ``pred`` may be batched (shape ``[B]``) over leaves of shape ``[B, ...]``.
+    """
+
+    def select(a, b):
+        p = jnp.reshape(pred, jnp.shape(pred) + (1,) * (jnp.ndim(a) - jnp.ndim(pred)))
+        return jnp.where(p, a, b)
+
+    return jax.tree_util.tree_map(select, on_true, on_false)

@@ -1,13 +1,16 @@
 """Batched evaluation episodes for any :class:`jaxdc.core.env.Environment`.
 
-:func:`run_episodes` plays ``num_episodes`` independent episodes at once,
-each from its own key, until every one has terminated or been truncated.
-Finished episodes are frozen (no auto-reset), so the returned final states
-hold each episode's own metrics. It runs in one ``lax.while_loop`` that
-stops as soon as the last episode ends.
+:func:`run_episodes` plays ``num_episodes`` independent episodes and returns
+the final state of each. It runs a fixed number of *lanes* in one
+``lax.while_loop``: when an episode ends, its lane starts the next episode
+that has not been played yet, so a few long episodes do not keep the whole
+batch busy. Every episode draws its randomness from its own key (its reset
+from ``split(key, num_episodes)[i]``, its step ``t`` from ``fold_in`` of that
+key and ``t``), so the results do not depend on the number of lanes or on
+the order in which episodes finish.
 
 The policy is ``policy(key, obs, state) -> action`` for one environment; it
-is vmapped here. It may close over network parameters, path tables and so on.
+is vmapped here and may close over network parameters, path tables and so on.
 """
 
 from __future__ import annotations
@@ -19,30 +22,62 @@ import jax.numpy as jnp
 
 from jaxdc.core.env import tree_select
 
+#: Default number of lanes (episodes stepped at once).
+DEFAULT_LANES = 2048
 
-def run_episodes(env, params, policy: Callable, key, num_episodes: int):
-    """Play ``num_episodes`` episodes with ``policy``; return the final (frozen) states, batched.
 
-    Deterministic in ``key``. ``params`` is shared by all episodes; to mix
-    parameters, vmap this function over them.
+def _take(tree, index):
+    return jax.tree_util.tree_map(lambda x: x[index], tree)
+
+
+def run_episodes(env, params, policy: Callable, key, num_episodes: int, lanes: int | None = None):
+    """Play ``num_episodes`` episodes with ``policy``; return their final states, batched ``[num_episodes]``.
+
+    Episodes end when terminated or truncated (``params``' step cap); they are
+    not auto-reset. ``params`` is shared by all episodes; to mix parameters,
+    vmap this function over them. ``lanes`` (default ``min(num_episodes,
+    2048)``) trades memory for speed and never changes the results.
     """
-    k_reset, k_loop = jax.random.split(key)
-    obs, state = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(k_reset, num_episodes), params)
-    done = jnp.zeros(num_episodes, bool)
+    n = int(num_episodes)
+    lanes = min(n, int(lanes or DEFAULT_LANES))
+    ep_keys = jax.random.split(key, n)
+    reset_keys, run_keys = jnp.split(jax.vmap(lambda k: jax.random.split(k, 2))(ep_keys), 2, axis=1)
+    run_keys = run_keys[:, 0]
+    obs0, state0 = jax.vmap(env.reset_env, in_axes=(0, None))(reset_keys[:, 0], params)
 
-    def one(key, obs, state, done):
+    def one(key, obs, state):
         k_act, k_step = jax.random.split(key)
         action = policy(k_act, obs, state)
         obs2, state2, _, term, trunc, _ = env.step_env(k_step, state, action, params)
-        state2 = tree_select(done, state, state2)
-        obs2 = jnp.where(done, obs, obs2)
-        return obs2, state2, done | term | trunc
+        return obs2, state2, term | trunc
 
     def body(carry):
-        key, obs, state, done = carry
-        key, sub = jax.random.split(key)
-        obs, state, done = jax.vmap(one)(jax.random.split(sub, num_episodes), obs, state, done)
-        return key, obs, state, done
+        obs, state, episode, active, next_episode, finals, finished_count = carry
+        step_keys = jax.vmap(jax.random.fold_in)(run_keys[episode], state.time)
+        obs2, state2, done = jax.vmap(one)(step_keys, obs, state)
+        ended = active & done
+        # record the episodes that ended; indices past the end are dropped
+        slot = jnp.where(ended, episode, n)
+        finals = jax.tree_util.tree_map(lambda f, s: f.at[slot].set(s, mode="drop"), finals, state2)
+        # refill their lanes with the next unplayed episodes
+        new_episode = next_episode + jnp.cumsum(ended) - 1
+        refill = ended & (new_episode < n)
+        episode = jnp.where(refill, new_episode, episode)
+        fresh = jnp.minimum(new_episode, n - 1)
+        state2 = tree_select(refill, _take(state0, fresh), state2)
+        obs2 = tree_select(refill, obs0[fresh], obs2)
+        active = jnp.where(ended, refill, active)
+        count = jnp.sum(ended)
+        return obs2, state2, episode, active, next_episode + count, finals, finished_count + count
 
-    carry = jax.lax.while_loop(lambda c: ~jnp.all(c[3]), body, (k_loop, obs, state, done))
-    return carry[2]
+    carry = (
+        obs0[:lanes],
+        _take(state0, jnp.arange(lanes)),
+        jnp.arange(lanes),
+        jnp.ones(lanes, bool),
+        jnp.int32(lanes),
+        state0,
+        jnp.int32(0),
+    )
+    carry = jax.lax.while_loop(lambda c: c[6] < n, body, carry)
+    return carry[5]
