@@ -31,6 +31,7 @@ from flax import struct
 
 from jaxdc.core import grid
 from jaxdc.core.env import Environment
+from jaxdc.core.sampling import MAX_RANGE, drop_units, uniform_index
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
 OUTCOMES = ("running", "risk", "energy", "cleared", "idle", "truncated")
@@ -107,6 +108,8 @@ class DCP(Environment[EnvState, EnvParams]):
         item_order: str = "drop",
     ):
         self.grid_size = grid.check_grid_size(grid_size)
+        if self.grid_size**2 > MAX_RANGE:
+            raise ValueError(f"grid_size must be <= 255 (N*N cells <= {MAX_RANGE}), got {grid_size}")
         if isinstance(total_reward, bool) or not isinstance(total_reward, (int, np.integer)):
             raise TypeError(f"total_reward must be an int >= 1, got {total_reward!r}")
         if total_reward < 1:
@@ -178,24 +181,17 @@ class DCP(Environment[EnvState, EnvParams]):
         """A random initial state (section 4.3): multinomial items, then the start cell."""
         n = self.grid_size
         k_items, k_start = jax.random.split(key)
-        low = 0 if self.items_on_base else 1
-        cells = jax.random.randint(k_items, (self.total_reward,), low, n * n)
-        hits = jax.nn.one_hot(cells, n * n, dtype=jnp.float32)  # [units, cells]
-        items = jnp.sum(hits, axis=0)
-        if self.item_order == "drop":  # index of the first unit that landed on each cell
-            first = jnp.where(hits > 0, jnp.arange(self.total_reward)[:, None], self.total_reward)
-            rank = jnp.min(first, axis=0).astype(jnp.int32)
-        else:
-            rank = jnp.arange(n * n, dtype=jnp.int32)
+        items, first = drop_units(k_items, self.total_reward, n * n, 0 if self.items_on_base else 1)
+        rank = first if self.item_order == "drop" else jnp.arange(n * n, dtype=jnp.int32)
         if self.start == "base":
             flat = jnp.int32(0)
         elif self.start == "random":
-            flat = jax.random.randint(k_start, (), 0, n * n)
+            flat = uniform_index(k_start, (), n * n)
         else:  # random_free: the k-th free cell for k uniform; any cell if none is free
             free = items == 0
             free = jnp.where(free.any(), free, True)
             count = jnp.cumsum(free)
-            k = jax.random.randint(k_start, (), 0, count[-1])
+            k = uniform_index(k_start, (), count[-1])
             flat = jnp.searchsorted(count, k, side="right").astype(jnp.int32)
         state = EnvState(
             pos=jnp.stack([flat // n, flat % n]).astype(jnp.int32),
@@ -260,7 +256,8 @@ class DCP(Environment[EnvState, EnvParams]):
     def observe(self, state: EnvState, params: EnvParams):
         """The two planes ``[N, N, 2]``: item rewards and the energy at the agent's cell."""
         n = self.grid_size
-        agent = jnp.zeros((n, n), jnp.float32).at[state.pos[0], state.pos[1]].set(state.energy)
+        here = (jnp.arange(n)[:, None] == state.pos[0]) & (jnp.arange(n)[None, :] == state.pos[1])
+        agent = jnp.where(here, state.energy, 0.0).astype(jnp.float32)
         return jnp.stack([state.items, agent], axis=-1)
 
 

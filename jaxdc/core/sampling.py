@@ -1,0 +1,37 @@
+"""Cheap, exactly distributed random draws shared by the grid problems.
+
+``jax.random.randint`` spends several random words and a division per draw;
+resetting thousands of environments per step makes that the bottleneck. Here
+one 32-bit word makes one draw by Lemire's multiply-shift,
+``floor(u * n / 2**32)``, computed exactly in 32-bit arithmetic. Its bias is
+at most ``n / 2**32`` per value (none when ``n`` is a power of two).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+#: The largest range ``uniform_index`` supports (the 32-bit product must not overflow).
+MAX_RANGE = 65535
+
+
+def uniform_index(key, shape, n):
+    """Integers uniform on ``[0, n)`` (``1 <= n <= 65535``, may be traced), shape ``shape``."""
+    u = jax.random.bits(key, shape, jnp.uint32)
+    n = jnp.asarray(n, jnp.uint32)
+    hi, lo = u >> 16, u & 0xFFFF
+    return ((hi * n + ((lo * n) >> 16)) >> 16).astype(jnp.int32)
+
+
+def drop_units(key, units: int, cells: int, low: int = 0):
+    """Drop ``units`` unit rewards uniformly on cells ``low .. cells-1`` (a multinomial).
+
+    Returns ``(counts, first)``, both ``[cells]``: the units per cell, and the
+    index of the first unit that landed on each cell (``units`` where none did),
+    which is the order of the item list.
+    """
+    where = low + uniform_index(key, (units,), cells - low)
+    counts = jnp.zeros(cells, jnp.float32).at[where].add(1.0)
+    first = jnp.full(cells, units, jnp.int32).at[where].min(jnp.arange(units, dtype=jnp.int32))
+    return counts, first
