@@ -1,0 +1,43 @@
+"""uniform_index (multiply-shift) and drop_units (multinomial drop with first-drop order)."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy import stats
+
+from jaxdc.core.sampling import drop_units, uniform_index
+
+
+@pytest.mark.parametrize("n", [1, 2, 25, 64, 1000, 65535])
+def test_uniform_index_range(n):
+    x = np.asarray(uniform_index(jax.random.PRNGKey(n), (20000,), n))
+    assert x.min() >= 0 and x.max() < n
+
+
+def test_uniform_index_is_floor_u_n_over_2_32():
+    u = jax.random.bits(jax.random.PRNGKey(3), (1000,), jnp.uint32)
+    got = np.asarray(uniform_index(jax.random.PRNGKey(3), (1000,), 1000))
+    want = (np.asarray(u).astype(np.uint64) * 1000) >> 32
+    np.testing.assert_array_equal(got, want.astype(np.int64))
+
+
+def test_uniform_index_uniform_chi_square():
+    x = np.asarray(uniform_index(jax.random.PRNGKey(0), (50000,), 25))
+    counts = np.bincount(x, minlength=25)
+    assert stats.chisquare(counts).pvalue > 1e-4
+
+
+def test_drop_units_counts_and_first_order():
+    counts, first = drop_units(jax.random.PRNGKey(5), 30, 64)
+    counts, first = np.asarray(counts), np.asarray(first)
+    assert counts.sum() == 30
+    hit = counts > 0
+    assert np.all(first[~hit] == 30)
+    # the first-drop indices of the hit cells are distinct and include 0 (the first unit)
+    assert len(set(first[hit])) == hit.sum() and 0 in first[hit]
+
+
+def test_drop_units_low_excludes_cells():
+    counts, _ = drop_units(jax.random.PRNGKey(1), 500, 9, low=1)
+    assert float(counts[0]) == 0.0 and float(counts.sum()) == 500
