@@ -35,7 +35,6 @@ import os
 import platform
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -48,10 +47,12 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchmarks import numpy_dcp  # noqa: E402
+from jaxdc.core.env import step_batch  # noqa: E402
 from jaxdc.core.paths import safest_paths  # noqa: E402
 from jaxdc.dcp import navigators  # noqa: E402
 from jaxdc.dcp.env import DCP  # noqa: E402
 from jaxdc.dcp.evaluate import evaluate_heuristic  # noqa: E402
+from jaxdc.io import atomic_write  # noqa: E402
 
 DEFAULT_BATCH_SIZES = (1, 64, 1024, 4096, 16384)
 TABLE43_NAVIGATORS = ("safe_reward", "safe_recharge", "safe_both", "safe_neither")
@@ -85,8 +86,11 @@ def _time_best(fn, repeats: int) -> tuple[float, float]:
     return first, best
 
 
-def make_rollout(env, params, batch: int, steps: int, policy: str):
-    """A jitted ``rollout(key) -> (final state, total reward)`` of ``steps`` auto-reset steps."""
+def make_rollout(env, params, batch: int, steps: int, policy: str, reset_slots: int | None = None):
+    """A jitted ``rollout(key) -> (final state, total reward)`` of ``steps`` auto-reset steps.
+
+    ``reset_slots`` is passed to :func:`jaxdc.core.env.step_batch` (None: a reset per env and step).
+    """
     table = safest_paths(params.risk) if policy == "safe_reward" else None
 
     def act(key, state):
@@ -94,7 +98,6 @@ def make_rollout(env, params, batch: int, steps: int, policy: str):
             return jax.random.randint(key, (batch,), 0, env.num_actions)
         return jax.vmap(lambda s: navigators.navigator_action("safe_reward", s, table))(state)
 
-    step = jax.vmap(env.step, in_axes=(0, 0, 0, None))
 
     @jax.jit
     def rollout(key):
@@ -105,7 +108,7 @@ def make_rollout(env, params, batch: int, steps: int, policy: str):
             key, obs, state, total = carry
             key, k_act, k_step = jax.random.split(key, 3)
             action = act(k_act, state)
-            obs, state, reward, _, _, _ = step(jax.random.split(k_step, batch), state, action, params)
+            obs, state, reward, _, _, _ = step_batch(env, k_step, state, action, params, reset_slots)
             return (key, obs, state, total + reward.sum()), None
 
         carry, _ = jax.lax.scan(body, (k_loop, obs, state, jnp.float32(0.0)), None, length=steps)
@@ -115,13 +118,14 @@ def make_rollout(env, params, batch: int, steps: int, policy: str):
     return rollout
 
 
-def bench_jax(policy: str, batch: int, steps: int, repeats: int, seed: int = 0) -> dict:
+def bench_jax(policy: str, batch: int, steps: int, repeats: int, seed: int = 0, reset_slots=None) -> dict:
     env, params = make_env()
-    rollout = make_rollout(env, params, batch, steps, policy)
+    rollout = make_rollout(env, params, batch, steps, policy, reset_slots)
     key = jax.random.key(seed)
     first, best = _time_best(lambda: rollout(key), repeats)
     n = batch * steps
-    return {"impl": f"jax_{policy}", "batch": batch, "steps": steps, "env_steps": n,
+    impl = f"jax_{policy}" + ("" if reset_slots is None else " [reset_slots=B/4]")
+    return {"impl": impl, "batch": batch, "steps": steps, "env_steps": n,
             "seconds": best, "compile_s": max(first - best, 0.0), "steps_per_s": n / best}
 
 
@@ -184,10 +188,11 @@ def run(args) -> dict:
             t = steps_for(b, args.steps, args.quick)
             if policy == "safe_reward":
                 t = max(1, t // 4) if args.steps is None else t  # ~4x slower per step
-            row = bench_jax(policy, b, t, repeats)
-            log(f"{row['impl']:>16} B={b:<6} T={t:<5} {row['steps_per_s']:>14,.0f} steps/s "
-                f"(compile {row['compile_s']:.2f} s)")
-            rows.append(row)
+            for slots in (None, max(1, b // 4)) if policy == "random" else (None,):
+                row = bench_jax(policy, b, t, repeats, reset_slots=slots)
+                log(f"{row['impl']:>16} B={b:<6} T={t:<5} {row['steps_per_s']:>14,.0f} steps/s "
+                    f"(compile {row['compile_s']:.2f} s)")
+                rows.append(row)
     np_steps = args.numpy_steps or (2_000 if args.quick else 50_000)
     row = bench_numpy(np_steps, repeats)
     log(f"{row['impl']:>16} B=1      T={np_steps:<5} {row['steps_per_s']:>14,.0f} steps/s")
@@ -261,16 +266,7 @@ def markdown(result: dict) -> str:
 
 
 def write_atomic(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write(path, text)
 
 
 def parse_args(argv=None):

@@ -113,18 +113,20 @@ def test_benchmark_main_quick(tmp_path, capsys):
     out = capsys.readouterr().out.strip()
     assert json.loads(out) == json.loads(json.dumps(result))  # exactly one JSON object on stdout
     impls = [(r["impl"], r["batch"]) for r in result["rows"]]
-    assert impls == [("jax_random", 1), ("jax_random", 4), ("jax_safe_reward", 1), ("numpy_random", 1)]
+    slots = "jax_random [reset_slots=B/4]"
+    assert impls == [("jax_random", 1), (slots, 1), ("jax_random", 4), (slots, 4), ("jax_safe_reward", 1),
+                     ("numpy_random", 1)]
     for r in result["rows"]:
         assert r["steps_per_s"] > 0 and r["env_steps"] == r["batch"] * r["steps"]
         assert set(r) >= {"impl", "batch", "steps", "seconds", "compile_s", "steps_per_s", "vs_numpy"}
     assert json.loads((tmp_path / "env_throughput.json").read_text())["rows"] == result["rows"]
     md = (tmp_path / "env_throughput.md").read_text()
     assert md.startswith("| implementation | batch | T | env-steps/s |") and md.count("| jax_random |") == 2
-    assert not list(tmp_path.glob("*.tmp"))
+    assert not list(tmp_path.glob(".tmp-*"))
 
     # The Table 4.3 and target sections, on a synthetic result (compiling them costs ~20 s).
     fake = dict(result)
-    fake["rows"] = result["rows"] + [dict(result["rows"][1], batch=4096)]
+    fake["rows"] = result["rows"] + [dict(result["rows"][0], batch=4096)]
     fake["table43"] = {"episodes": 10_000, "compile_s": 4.0, "run_s": 2.0,
                        "navigators": {n: {"compile_s": 1.0, "run_s": 0.5, "episode_steps": 10}
                                       for n in env_throughput.TABLE43_NAVIGATORS}}

@@ -83,6 +83,45 @@ class Environment(Generic[S, P]):
         return obs, state, reward, terminated, truncated, info
 
 
+def step_batch(env: "Environment", key, state, action, params, reset_slots: int | None = None):
+    """``B`` environments sharing ``params`` stepped at once, with auto-reset.
+
+    With ``reset_slots=None`` this is ``vmap(env.step)`` over ``split(key, B)``.
+    With ``reset_slots=K`` only ``K`` fresh initial states are drawn per step
+    and handed to the environments that finished, in batch order; a step on
+    which more than ``K`` finish falls back to ``B`` fresh states (a
+    ``lax.cond``, so the fallback costs only when taken). Every new episode
+    still starts from an independent initial state; the random streams differ
+    from the ``None`` path, so the two give different (equally distributed)
+    trajectories. Resets dominate the cost of a step when episodes are short,
+    so a small ``K`` (a few times the expected number of finished episodes
+    per step) makes large batches much faster.
+    """
+    b = action.shape[0]
+    k_step, k_reset = jax.random.split(key)
+    if reset_slots is None:
+        return jax.vmap(env.step, in_axes=(0, 0, 0, None))(jax.random.split(key, b), state, action, params)
+    obs_st, state_st, reward, terminated, truncated, info = jax.vmap(env.step_env, in_axes=(0, 0, 0, None))(
+        jax.random.split(k_step, b), state, action, params
+    )
+    done = terminated | truncated
+    k = min(int(reset_slots), b)
+
+    def few(_):
+        fresh = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(k_reset, k), params)
+        slot = jnp.clip(jnp.cumsum(done) - 1, 0, k - 1)
+        return jax.tree_util.tree_map(lambda x: x[slot], fresh)
+
+    def all_(_):
+        return jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(k_reset, b), params)
+
+    obs_re, state_re = jax.lax.cond(jnp.sum(done) <= k, few, all_, None)
+    info = dict(info)
+    info["final_observation"] = obs_st
+    return (tree_select(done, obs_re, obs_st), tree_select(done, state_re, state_st), reward,
+            terminated, truncated, info)
+
+
 def tree_select(pred, on_true: Any, on_false: Any):
     """``jnp.where(pred, a, b)`` leaf by leaf over two pytrees of the same structure.
 
