@@ -1,0 +1,26 @@
+"""eval.report: the results page from results JSON, and a clear error without results."""
+
+import json
+
+from eval import report
+
+
+def test_report_builds_page_with_commands_and_se(tmp_path):
+    d = tmp_path / "results" / "dcp"
+    d.mkdir(parents=True)
+    payload = {"table": "4.8", "caption": "one item", "command": "python -m eval.dcp --table 4.8",
+               "thesis": {"safe_neither": [0.55, 0.50, 4.78, 3.68, 0.228, 0.317]},
+               "ours": {"safe_neither": {"reward": {"mean": 0.56, "sd": 0.5}, "energy": {"mean": 4.8, "sd": 3.7},
+                                         "rpe": {"mean": 0.23, "sd": 0.3}, "episodes": 10000}}}
+    (d / "table_4.8.json").write_text(json.dumps(payload))
+    out = tmp_path / "results.md"
+    assert report.main(["--results", str(tmp_path / "results"), "--out", str(out), "--notes", "none"]) == 0
+    page = out.read_text()
+    assert "`python -m eval.dcp --table 4.8`" in page
+    assert "| safe_neither | 0.55 ± 0.50 | 0.56 ± 0.50 | +2.0 |" in page  # (0.56-0.55)/(0.5/100)
+
+
+def test_report_without_results_says_what_to_run(tmp_path, capsys):
+    assert report.main(["--results", str(tmp_path), "--out", str(tmp_path / "r.md")]) == 2
+    assert "python -m eval.dcp --table" in capsys.readouterr().err
+    assert not (tmp_path / "r.md").exists()
