@@ -271,8 +271,8 @@ def test_bad_path_risk_and_shape():
 
 
 def test_helpers():
-    assert int(paths.flat_index(jnp.array([2, 3]), 5)) == 13
-    np.testing.assert_array_equal(paths.flat_index(np.array([[0, 0], [4, 4], [1, 0]]), 5), [0, 24, 5])
+    assert int(grid.flat_index(jnp.array([2, 3]), 5)) == 13
+    np.testing.assert_array_equal(grid.flat_index(np.array([[0, 0], [4, 4], [1, 0]]), 5), [0, 24, 5])
     t = safest(grid.risk_map("medium", 4), path_risk="departed")
     s, a, k = paths.path_to(t, jnp.array([0, 5]), jnp.array([15, 5]))
     np.testing.assert_array_equal(s, t.success[jnp.array([0, 5]), jnp.array([15, 5])])

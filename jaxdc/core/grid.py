@@ -112,6 +112,18 @@ def cell_coords(grid_size: int):
     return jnp.asarray(np.stack([r, c], axis=-1).astype(np.int32))
 
 
+def flat_index(pos, grid_size: int):
+    """Row-major flat index of ``pos`` (``[..., 2]`` = (row, col))."""
+    pos = jnp.asarray(pos)
+    return (pos[..., 0] * grid_size + pos[..., 1]).astype(jnp.int32)
+
+
+def unflat_index(index, grid_size: int):
+    """The ``(row, col)`` of a row-major flat index, shape ``[..., 2]``."""
+    index = jnp.asarray(index)
+    return jnp.stack([index // grid_size, index % grid_size], axis=-1).astype(jnp.int32)
+
+
 def ring_index(grid_size: int) -> np.ndarray:
     """Concentric ring of each cell, 0 (outermost) .. 3 (innermost), shape ``[N, N]``.
 

@@ -231,9 +231,3 @@ def _safest_paths(risk, departed: bool, tie_tol) -> PathTable:
 def path_to(table: PathTable, src, dst):
     """``(success, next_action, steps)`` of the safest path from flat cell ``src`` to ``dst``."""
     return table.success[src, dst], table.next_action[src, dst], table.steps[src, dst]
-
-
-def flat_index(pos, grid_size: int):
-    """Row-major flat index of ``pos`` (``[..., 2]`` = (row, col))."""
-    pos = jnp.asarray(pos)
-    return pos[..., 0] * grid_size + pos[..., 1]

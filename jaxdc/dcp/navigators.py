@@ -80,7 +80,7 @@ def navigator_action(name: str, state, table: PathTable, cfg: PlannerConfig = Pl
     n = state.items.shape[0]
     item = _item_plan(n1, state, table, cfg)
     home_now = _home(n0, state.pos, n, table, cfg)
-    home_after = _home(n0, planners.unflat(item.target, n), n, table, cfg).length
+    home_after = _home(n0, grid.unflat_index(item.target, n), n, table, cfg).length
     return navigate(item, home_now, home_after, state.energy)
 
 
@@ -105,7 +105,7 @@ def enn_heuristics(state, params, table: PathTable, cfg: PlannerConfig = Planner
     items = {name: _item_plan(name, state, table, cfg) for name in ("lpg", "cf")}
     homes = {h: _home(h, state.pos, n, table, cfg) for h in ("safe_home", "fast_home")}
     navs = [
-        navigate(items[n1], homes[n0], _home(n0, planners.unflat(items[n1].target, n), n, table, cfg).length,
+        navigate(items[n1], homes[n0], _home(n0, grid.unflat_index(items[n1].target, n), n, table, cfg).length,
                  state.energy)
         for n1, n0 in NAVIGATORS.values()
     ]

@@ -80,14 +80,6 @@ def first_best(score, rtol: float, rank=None):
     return jnp.argmin(jnp.where(tied, rank.reshape(-1), jnp.iinfo(jnp.int32).max)).astype(jnp.int32)
 
 
-def flat(pos, grid_size: int):
-    return (pos[..., 0] * grid_size + pos[..., 1]).astype(jnp.int32)
-
-
-def unflat(index, grid_size: int):
-    return jnp.stack([index // grid_size, index % grid_size], axis=-1).astype(jnp.int32)
-
-
 def tour_planner(criterion: str):
     """The planner that follows the safest path to the item chosen by an append criterion.
 
@@ -100,7 +92,7 @@ def tour_planner(criterion: str):
 
     def planner(pos, items, table: PathTable, cfg: PlannerConfig = PlannerConfig(), rank=None) -> Plan:
         n = items.shape[0]
-        z = flat(pos, n)
+        z = grid.flat_index(pos, n)
         beta = items.reshape(-1)
         score = append_scores(
             criterion, table.success[z], table.success, beta, beta > 0, lpg_init=cfg.lpg_init
@@ -125,8 +117,8 @@ def cf(pos, items, table: PathTable | None = None, cfg: PlannerConfig = PlannerC
     has_item = items.reshape(-1) > 0
     rank = jnp.arange(n * n) if rank is None else rank.reshape(-1)
     key = jnp.where(has_item, dist * (n * n) + rank, jnp.iinfo(jnp.int32).max)
-    target = jnp.where(jnp.any(has_item), jnp.argmin(key), flat(pos, n))
-    tpos = unflat(target, n)
+    target = jnp.where(jnp.any(has_item), jnp.argmin(key), grid.flat_index(pos, n))
+    tpos = grid.unflat_index(target, n)
     return Plan(
         grid.shortest_move(pos, tpos, n, cfg.shortest_move),
         target.astype(jnp.int32),
@@ -136,7 +128,7 @@ def cf(pos, items, table: PathTable | None = None, cfg: PlannerConfig = PlannerC
 
 def safe_home(pos, grid_size: int, table: PathTable, cfg: PlannerConfig = PlannerConfig()) -> Plan:
     """The safest path back to the base (section 4.4.2)."""
-    z = flat(pos, grid_size)
+    z = grid.flat_index(pos, grid_size)
     return Plan(table.next_action[z, 0], jnp.int32(0), table.steps[z, 0])
 
 
