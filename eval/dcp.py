@@ -59,7 +59,8 @@ def _positive_int(name):
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m eval.dcp", description=__doc__.split("\n\n")[0])
     what = p.add_mutually_exclusive_group()
-    what.add_argument("--policy", choices=POLICIES, default="safe_reward", help="heuristic policy to evaluate")
+    what.add_argument("--policy", choices=POLICIES + ("optimal",), default="safe_reward",
+                      help="heuristic policy to evaluate; 'optimal' = exact value iteration (needs --total-reward 1)")
     what.add_argument("--table", choices=sorted(TABLES, key=lambda t: float(t)), help="reproduce a thesis table")
     p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default="high", help="risk preset (Table 4.2)")
     p.add_argument("--risk-map", metavar="FILE", help="N x N risk map (.npy or JSON); overrides --risk")
@@ -108,7 +109,7 @@ def evaluate_rows(args, spec=None, progress=None) -> dict:
     """Evaluate ``args.policy`` or every heuristic row of ``spec``; return ``{policy: summary}``."""
     import jax
 
-    from jaxdc.dcp.evaluate import evaluate_heuristic, summarize
+    from jaxdc.dcp.evaluate import evaluate_heuristic, evaluate_optimal, summarize
 
     if args.risk_map:
         risk = load_risk_map(args.risk_map)
@@ -133,10 +134,15 @@ def evaluate_rows(args, spec=None, progress=None) -> dict:
     out = {}
     for name in policies:
         t0 = time.perf_counter()
-        final = evaluate_heuristic(env, params, name, jax.random.PRNGKey(args.seed), args.episodes, cfg,
-                                   args.path_risk)
+        key = jax.random.PRNGKey(args.seed)
+        if name == "optimal":
+            final, optimum = evaluate_optimal(env, params, key, args.episodes)
+        else:
+            final = evaluate_heuristic(env, params, name, key, args.episodes, cfg, args.path_risk)
         jax.block_until_ready(final)
         out[name] = summarize(final, args.rpe_zero)
+        if name == "optimal":
+            out[name]["expected_optimum"] = optimum
         out[name]["seconds"] = round(time.perf_counter() - t0, 3)
         if progress:
             progress(name, out[name])

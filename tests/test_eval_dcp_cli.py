@@ -149,3 +149,20 @@ def test_cli_table_4_8_writes_results(tmp_path, capsys):
     assert data["thesis"]["safe_neither"][0] == 0.55
     assert all(v["episodes"] == 300 for v in data["ours"].values())
     assert "safe_neither" in md.read_text()
+
+
+def test_cli_optimal_policy_matches_its_exact_value(capsys):
+    # small map so that value iteration and the rollout compile fast
+    assert cli.main(["--policy", "optimal", "--total-reward", "1", "--grid-size", "4", "--episodes", "3000",
+                     "--risk", "high", "--energy", "4", "6", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    p = out["expected_optimum"]
+    se = math.sqrt(p * (1 - p) / 3000)
+    assert abs(out["reward"]["mean"] - p) < 4 * se + 1e-9
+
+
+def test_cli_optimal_needs_single_item(capsys):
+    with pytest.raises(SystemExit) as e:
+        cli.main(["--policy", "optimal", "--episodes", "10"])
+    assert e.value.code == 2
+    assert "total_reward=1" in capsys.readouterr().err

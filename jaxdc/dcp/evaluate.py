@@ -62,6 +62,24 @@ def evaluate_heuristic(
     return _run_heuristic(env, params, key, name, cfg, check_episodes(episodes), path_risk)
 
 
+def evaluate_optimal(env: DCP, params: EnvParams, key, episodes: int = 10_000):
+    """Final states of the exact optimal policy of the single-item DCP (``total_reward=1``).
+
+    Solves the MDP by value iteration (:mod:`jaxdc.dcp.optimal`) and plays it
+    like any other policy. Returns ``(final_states, expected_optimum)``.
+    """
+    from jaxdc.dcp.optimal import expected_optimum, optimal_policy, solve_single_item
+
+    if env.total_reward != 1:
+        raise ValueError(f"policy 'optimal' needs total_reward=1 (the single-item setting), got {env.total_reward}")
+    sol = solve_single_item(
+        np.asarray(params.risk), float(params.max_energy), float(params.init_energy), grid_size=env.grid_size
+    )
+    episodes = check_episodes(episodes)
+    final = jax.jit(lambda k: run_episodes(env, params, optimal_policy(sol), k, episodes))(key)
+    return final, expected_optimum(sol, env.items_on_base, env.start)
+
+
 def summarize(final_states, rpe_zero: str = "exclude") -> dict:
     """Mean/SD of reward, energy and RPE over episodes, plus outcome counts.
 
