@@ -1,0 +1,79 @@
+"""The Flax networks of jaxdc.nets: shapes, the ENN ensemble of Fig. 4.3, heuristics ignored where they should be."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxdc.nets import ACTOR_CRITICS, ENN, make_net
+
+B, N = 3, 5
+
+
+def _inputs(seed=0):
+    k1, k2 = jax.random.split(jax.random.PRNGKey(seed))
+    obs = jax.random.uniform(k1, (B, N, N, 2)) * 4
+    heur = jax.random.uniform(k2, (B, 10, 9))
+    return obs, heur
+
+
+@pytest.mark.parametrize("name", sorted(ACTOR_CRITICS))
+def test_shapes_and_value_method(name):
+    net = make_net(name)
+    obs, heur = _inputs()
+    params = net.init(jax.random.PRNGKey(0), obs, heur)
+    logits, value = net.apply(params, obs, heur)
+    assert logits.shape == (B, 9) and value.shape == (B,)
+    assert np.all(np.isfinite(logits)) and np.all(np.isfinite(value))
+    np.testing.assert_allclose(net.apply(params, obs, method="value"), value, rtol=1e-6, atol=1e-6)
+
+
+def test_body_sizes_follow_section_4_5():
+    params = make_net("enn").init(jax.random.PRNGKey(0), *_inputs())["params"]
+    body = params["body"]
+    assert body["Conv_0"]["kernel"].shape == (3, 3, 2, 32)
+    assert body["Conv_1"]["kernel"].shape == (3, 3, 32, 16)
+    assert body["Dense_0"]["kernel"].shape == (N * N * 16, 256)
+
+
+def test_enn_logits_are_the_weighted_sum_of_heuristics():
+    net = ENN()
+    obs, heur = _inputs()
+    params = net.init(jax.random.PRNGKey(1), obs, heur)
+    (logits, _), inter = net.apply(params, obs, heur, mutable=["intermediates"])
+    w = inter["intermediates"]["head"]["w"][0]
+    b = inter["intermediates"]["head"]["b"][0]
+    assert w.shape == (B, 10, 9) and b.shape == (B, 9)
+    expected = np.einsum("bia,bia->ba", np.asarray(w), np.asarray(heur)) + np.asarray(b)
+    np.testing.assert_allclose(np.asarray(logits), expected, rtol=1e-5, atol=1e-5)
+    # the heuristics matter: changing one row changes the logits by w_i * delta
+    heur2 = heur.at[:, 3].add(1.0)
+    logits2, _ = net.apply(params, obs, heur2)
+    np.testing.assert_allclose(np.asarray(logits2 - logits), np.asarray(w[:, 3]), rtol=1e-4, atol=1e-5)
+
+
+@pytest.mark.parametrize("name", ["linear", "cnn"])
+def test_heuristic_free_nets_ignore_heuristics(name):
+    net = make_net(name)
+    obs, heur = _inputs()
+    params = net.init(jax.random.PRNGKey(0), obs, heur)
+    a = net.apply(params, obs, heur)
+    b = net.apply(params, obs, jnp.zeros_like(heur))
+    np.testing.assert_array_equal(np.asarray(a[0]), np.asarray(b[0]))
+    assert not net.uses_heuristics and make_net("enn").uses_heuristics
+
+
+def test_linear_is_linear_in_the_planes():
+    net = make_net("linear")
+    obs, heur = _inputs()
+    params = net.init(jax.random.PRNGKey(0), obs, heur)
+    zero = jnp.zeros_like(obs)
+    f = lambda x: net.apply(params, x, heur)[0]  # noqa: E731
+    np.testing.assert_allclose(f(2 * obs) - f(zero), 2 * (f(obs) - f(zero)), rtol=1e-4, atol=1e-4)
+
+
+def test_unknown_net():
+    with pytest.raises(ValueError, match="net must be one of"):
+        make_net("eqn2")
