@@ -1,0 +1,368 @@
+"""The Data-collection Game (DCG), thesis section 5.3 with the settings of 5.5.1.
+
+A collector and an opponent on an ``N x N`` grid with the base at ``(0, 0)``.
+The collector starts in the base with full energy; the opponent on a random
+cell; ``total_reward`` unit rewards are dropped multinomially over the cells.
+The opponent's strategy (:mod:`jaxdc.dcg.opponents`) is drawn uniformly per
+episode from the configured set.
+
+One transition (section 5.3), in this order:
+
+1. the opponent moves (its action ``o_t``); if it lands on the collector's
+   cell, the collector is disabled and does not move;
+2. otherwise the collector moves (clipped per axis) and collects the item in
+   its new cell;
+3. if it ends on the opponent's cell, it is disabled (the item of step 2
+   still counts by default, see ``reward_when_caught``);
+4. its energy drops by one unless it is in the base, where it refills to the
+   maximum; it is disabled when the energy reaches 0.
+
+The episode *terminates* when the collector is disabled or every item is
+collected; the step cap ``max_steps`` *truncates* it (the thesis shows games
+that never end).
+
+Observation (section 5.4.1), channels-last: ``M^item`` (item rewards),
+``M^agent`` (the collector's energy at its cell, -1 at the opponent's cell,
+0 elsewhere; with a fog-hiding strategy the opponent is left out while the
+collector is in a fog cell), and -- with ``obs_history=True`` -- the ``k``
+previous agent planes ``M^agent_{t-1} .. M^agent_{t-k}`` (the history ``h``
+of sections 5.4.3-5.4.5), kept in the state so that everything stays pure.
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from jaxdc.core import grid
+from jaxdc.core.env import Environment
+from jaxdc.core.sampling import MAX_RANGE, drop_units, uniform_index
+from jaxdc.dcg import opponents as opp_lib
+from jaxdc.dcg.opponents import CHASE_TIES, STANDARD_STRATEGIES, OpponentState
+
+#: How an episode ended; ``info["outcome"]`` holds the index.
+OUTCOMES = ("running", "caught", "energy", "cleared", "truncated")
+RUNNING, CAUGHT, ENERGY, CLEARED, TRUNCATED = range(len(OUTCOMES))
+
+#: Where the opponent starts ("the locations of the opponent and items are randomly selected").
+OPPONENT_STARTS = ("not_base", "any")
+#: The far end of the patrol ("a random location other than the base").
+PATROL_TARGETS = ("other", "any_non_base")
+#: What the history holds before the first step.
+HISTORY_FILLS = ("zeros", "first")
+#: What "energy consumed" counts (as for the DCP, see docs/ambiguities.md).
+ENERGY_METRICS = ("not_stay_in_base", "outside_base", "all_steps")
+
+
+@struct.dataclass
+class EnvParams:
+    """Numeric settings; every leaf may differ across a ``vmap`` batch. Build with :meth:`DCG.make_params`."""
+
+    max_energy: jax.Array  # float32; the collector starts with it and refills to it in the base
+    max_steps: jax.Array  # int32 step cap (truncation)
+    chase_tie: jax.Array  # int32 index into opponents.CHASE_TIES
+
+
+@struct.dataclass
+class EnvState:
+    pos: jax.Array  # [2] int32 collector (row, col)
+    energy: jax.Array  # float32
+    items: jax.Array  # [N, N] float32 reward per cell
+    opponent: OpponentState
+    strategy: jax.Array  # int32 index into DCG.strategies (this episode's strategy)
+    history: jax.Array  # [N, N, k] float32: observed agent planes M_{t-1} .. M_{t-k}
+    time: jax.Array  # int32 steps taken in this episode
+    outcome: jax.Array  # int32 index into OUTCOMES
+    ep_reward: jax.Array  # float32
+    ep_energy: jax.Array  # int32 energy consumed so far (see ENERGY_METRICS)
+
+
+def _check_int(name: str, value, low: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int >= {low}, got {value!r}")
+    if value < low:
+        raise ValueError(f"{name} must be >= {low}, got {value}")
+    return int(value)
+
+
+def _check_choice(name: str, value, choices) -> str:
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+    return value
+
+
+class DCG(Environment[EnvState, EnvParams]):
+    """The DCG environment (section 5.3) with the gymnax-style functional API.
+
+    Args:
+      grid_size: ``N`` (>= 2); 5 in the thesis.
+      total_reward: unit rewards dropped multinomially at reset (10 in 5.5.1).
+      strategies: names of registered opponent strategies (see
+        :func:`jaxdc.dcg.opponents.register_strategy`), one drawn uniformly
+        per episode; ``info["strategy"]`` is the index into this tuple.
+      history: ``k`` (>= 1), the number of previous agent planes kept (10).
+      obs_history: observations are ``[N, N, 2 + k]`` (state plus history,
+        the input of IMNN/EMNN/OMN/CoNN; VNN takes ``obs[..., :2]``) when
+        true, else only the two planes ``[N, N, 2]``.
+      history_fill: the history at reset: ``"zeros"`` (no history yet) or
+        ``"first"`` (every slot holds the first agent plane).
+      items_on_base: whether the drop may put items on the base (5.5.1 drops
+        over all 25 cells).
+      opponent_start: ``"not_base"`` (uniform over the cells other than the
+        base, i.e. never on the collector) or ``"any"``.
+      patrol_target: the patrol's far end: ``"other"`` (uniform over the
+        non-base cells other than its start, so that it really moves back and
+        forth) or ``"any_non_base"`` (may equal the start: it then stays).
+      reward_when_caught: whether the item collected on the step the
+        collector ends on the opponent's cell (step 3) counts.
+      energy_metric: what ``info["episode_energy"]`` counts (as for the DCP).
+    """
+
+    def __init__(
+        self,
+        grid_size: int = 5,
+        total_reward: int = 10,
+        strategies=STANDARD_STRATEGIES,
+        history: int = 10,
+        obs_history: bool = True,
+        history_fill: str = "zeros",
+        items_on_base: bool = True,
+        opponent_start: str = "not_base",
+        patrol_target: str = "other",
+        reward_when_caught: bool = True,
+        energy_metric: str = "not_stay_in_base",
+    ):
+        self.grid_size = grid.check_grid_size(grid_size)
+        if self.grid_size**2 > MAX_RANGE:
+            raise ValueError(f"grid_size must be <= 255 (N*N cells <= {MAX_RANGE}), got {grid_size}")
+        self.total_reward = _check_int("total_reward", total_reward, 1)
+        self._strategies = opp_lib.get_strategies(strategies)
+        self.strategies = tuple(s.name for s in self._strategies)
+        self.history = _check_int("history (k)", history, 1)
+        self.obs_history = bool(obs_history)
+        self.history_fill = _check_choice("history_fill", history_fill, HISTORY_FILLS)
+        self.items_on_base = bool(items_on_base)
+        self.opponent_start = _check_choice("opponent_start", opponent_start, OPPONENT_STARTS)
+        self.patrol_target = _check_choice("patrol_target", patrol_target, PATROL_TARGETS)
+        self.reward_when_caught = bool(reward_when_caught)
+        self.energy_metric = _check_choice("energy_metric", energy_metric, ENERGY_METRICS)
+
+    def _config(self) -> tuple:
+        return (self.grid_size, self.total_reward, self._strategies, self.history, self.obs_history,
+                self.history_fill, self.items_on_base, self.opponent_start, self.patrol_target,
+                self.reward_when_caught, self.energy_metric)
+
+    def __eq__(self, other) -> bool:  # equal configs share jit caches (the env is a static arg)
+        return type(other) is type(self) and other._config() == self._config()
+
+    def __hash__(self) -> int:
+        return hash((type(self).__name__,) + self._config())
+
+    def __repr__(self) -> str:
+        return (
+            f"DCG(grid_size={self.grid_size}, total_reward={self.total_reward}, strategies={self.strategies}, "
+            f"history={self.history}, obs_history={self.obs_history}, history_fill={self.history_fill!r}, "
+            f"items_on_base={self.items_on_base}, opponent_start={self.opponent_start!r}, "
+            f"patrol_target={self.patrol_target!r}, reward_when_caught={self.reward_when_caught}, "
+            f"energy_metric={self.energy_metric!r})"
+        )
+
+    # -- parameters -------------------------------------------------------------------
+    def make_params(self, energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight") -> EnvParams:
+        """Validated :class:`EnvParams`.
+
+        Args:
+          energy: the maximum (and initial) energy, > 0 (``inf`` allowed); 15
+            in 5.5.1, 10 and 20 in Figs. 5.8-5.9.
+          max_steps: the step cap (>= 1) that truncates an episode.
+          chase_tie: how "moves towards" breaks ties, one of
+            :data:`~jaxdc.dcg.opponents.CHASE_TIES`.
+        """
+        try:
+            e = float(energy)
+        except (TypeError, ValueError):
+            raise TypeError(f"energy must be a number > 0, got {energy!r}") from None
+        if math.isnan(e) or e <= 0:
+            raise ValueError(f"energy must be > 0 (inf allowed), got {energy!r}")
+        _check_int("max_steps", max_steps, 1)
+        _check_choice("chase_tie", chase_tie, CHASE_TIES)
+        return EnvParams(
+            max_energy=jnp.float32(e),
+            max_steps=jnp.int32(max_steps),
+            chase_tie=jnp.int32(CHASE_TIES.index(chase_tie)),
+        )
+
+    @property
+    def default_params(self) -> EnvParams:
+        return self.make_params()
+
+    @property
+    def num_actions(self) -> int:
+        return grid.NUM_ACTIONS
+
+    def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
+        return (self.grid_size, self.grid_size, 2 + (self.history if self.obs_history else 0))
+
+    # -- dynamics ---------------------------------------------------------------------
+    def reset_env(self, key, params: EnvParams):
+        """The initial state of section 5.3: collector in the base, random opponent, items and strategy."""
+        n, cells = self.grid_size, self.grid_size**2
+        k_items, k_opp, k_target, k_strat = jax.random.split(key, 4)
+        items, _ = drop_units(k_items, self.total_reward, cells, 0 if self.items_on_base else 1)
+        if self.opponent_start == "not_base":
+            start = 1 + uniform_index(k_opp, (), cells - 1)
+        else:
+            start = uniform_index(k_opp, (), cells)
+        if self.patrol_target == "other":  # non-base cells other than the start, in row-major order
+            off_base = start != 0
+            t = 1 + uniform_index(k_target, (), cells - 1 - off_base.astype(jnp.int32))
+            target = jnp.where(off_base & (t >= start), t + 1, t)
+        else:
+            target = 1 + uniform_index(k_target, (), cells - 1)
+        home = grid.unflat_index(start, n)
+        state = EnvState(
+            pos=jnp.zeros(2, jnp.int32),
+            energy=params.max_energy,
+            items=items.reshape(n, n),
+            opponent=OpponentState(pos=home, home=home, target=grid.unflat_index(target, n), phase=jnp.int32(0)),
+            strategy=uniform_index(k_strat, (), len(self.strategies)),
+            history=jnp.zeros((n, n, self.history), jnp.float32),
+            time=jnp.int32(0),
+            outcome=jnp.int32(RUNNING),
+            ep_reward=jnp.float32(0.0),
+            ep_energy=jnp.int32(0),
+        )
+        if self.history_fill == "first":
+            plane = self.agent_plane(state)
+            state = state.replace(history=jnp.repeat(plane[..., None], self.history, axis=-1))
+        return self.observe(state, params), state
+
+    def opponent_move(self, key, state: EnvState, params: EnvParams):
+        """The opponent's action ``o_t`` and its new state (moved), by this episode's strategy."""
+        branches = [
+            lambda k, o, g, p, f=s.fn: tuple(jax.tree_util.tree_map(jnp.asarray, f(k, o, g, p)))
+            for s in self._strategies
+        ]
+        action, opp = jax.lax.switch(state.strategy, branches, key, state.opponent, state, params)
+        action = jnp.asarray(action, jnp.int32)
+        return action, opp.replace(pos=grid.move(state.opponent.pos, action, self.grid_size))
+
+    def step_env(self, key, state: EnvState, action, params: EnvParams):
+        """One transition of section 5.3, without auto-reset."""
+        o_t, opp = self.opponent_move(key, state, params)
+        caught_first = jnp.all(opp.pos == state.pos)  # (1) the opponent lands on the collector
+        pos = jnp.where(caught_first, state.pos, grid.move(state.pos, action, self.grid_size))  # (2)
+        caught_after = ~caught_first & jnp.all(pos == opp.pos)  # (3)
+        collect = ~caught_first
+        if not self.reward_when_caught:
+            collect = collect & ~caught_after
+        item = state.items[pos[0], pos[1]]
+        reward = jnp.where(collect, item, 0.0)
+        items = state.items.at[pos[0], pos[1]].set(jnp.where(collect, 0.0, item))
+        in_base = jnp.all(pos == 0)  # (4)
+        energy = jnp.where(in_base, params.max_energy, jnp.maximum(state.energy - 1.0, 0.0))
+        out_of_energy = ~in_base & (energy <= 0)
+        if self.energy_metric == "not_stay_in_base":
+            used = ~(in_base & jnp.all(state.pos == 0))
+        elif self.energy_metric == "outside_base":
+            used = ~in_base
+        else:
+            used = jnp.bool_(True)
+        time = state.time + 1
+        outcome = jnp.select(
+            [caught_first | caught_after, out_of_energy, jnp.all(items <= 0), time >= params.max_steps],
+            [CAUGHT, ENERGY, CLEARED, TRUNCATED],
+            RUNNING,
+        ).astype(jnp.int32)
+        history = jnp.concatenate([self.agent_plane(state)[..., None], state.history[..., :-1]], axis=-1)
+        new_state = state.replace(
+            pos=pos, energy=energy, items=items, opponent=opp, history=history, time=time, outcome=outcome,
+            ep_reward=state.ep_reward + reward, ep_energy=state.ep_energy + used.astype(jnp.int32),
+        )
+        terminated = (outcome != RUNNING) & (outcome != TRUNCATED)
+        truncated = outcome == TRUNCATED
+        info = {
+            "outcome": outcome,
+            "opponent_action": o_t,
+            "strategy": state.strategy,
+            "episode_reward": new_state.ep_reward,
+            "episode_energy": new_state.ep_energy,
+            "episode_steps": time,
+        }
+        return self.observe(new_state, params), new_state, reward, terminated, truncated, info
+
+    # -- observations -----------------------------------------------------------------
+    def opponent_hidden(self, state: EnvState):
+        """Whether the collector cannot see the opponent: a fog-hiding strategy and the collector in the fog."""
+        hides = jnp.asarray([s.hides_in_fog for s in self._strategies])
+        return hides[state.strategy] & opp_lib.in_fog(state.pos)
+
+    def agent_plane(self, state: EnvState):
+        """``M^agent`` as the collector observes it (section 5.4.1), ``[N, N]``.
+
+        The collector's energy at its cell, -1 at the opponent's (drawn over the
+        collector when they share a cell), 0 elsewhere; the opponent is left out
+        while :meth:`opponent_hidden`.
+        """
+        n = self.grid_size
+        rows, cols = jnp.arange(n)[:, None], jnp.arange(n)[None, :]
+        me = (rows == state.pos[0]) & (cols == state.pos[1])
+        opp = (rows == state.opponent.pos[0]) & (cols == state.opponent.pos[1]) & ~self.opponent_hidden(state)
+        return jnp.where(opp, -1.0, jnp.where(me, state.energy, 0.0)).astype(jnp.float32)
+
+    def planes(self, state: EnvState):
+        """The current state ``s_t`` as two planes ``[N, N, 2]``: ``M^item``, ``M^agent``."""
+        return jnp.stack([state.items, self.agent_plane(state)], axis=-1)
+
+    def observe_history(self, state: EnvState):
+        """The history ``h``: the ``k`` previous observed agent planes, ``[N, N, k]`` (newest first)."""
+        return state.history
+
+    def observe(self, state: EnvState, params: EnvParams):
+        """``[N, N, 2 + k]`` (planes then history) with ``obs_history``, else ``[N, N, 2]``."""
+        planes = self.planes(state)
+        if self.obs_history:
+            return jnp.concatenate([planes, state.history], axis=-1)
+        return planes
+
+    # -- text rendering (outside jit) ----------------------------------------------------
+    def render_ansi(self, state: EnvState, params: EnvParams) -> str:
+        """Text grid: ``C`` collector, ``O`` opponent (``X`` both on one cell), ``B`` base, item digits
+        (``*`` above 9), ``.`` empty; ``~`` marks fog cells while the opponent is hidden from the collector.
+        One row per line, then a status line."""
+        state = jax.device_get(state)
+        items = np.asarray(state.items)
+        me = tuple(int(p) for p in state.pos)
+        op = tuple(int(p) for p in state.opponent.pos)
+        hidden = bool(self.opponent_hidden(state))
+        rows = []
+        for r in range(self.grid_size):
+            cells = []
+            for c in range(self.grid_size):
+                if (r, c) == me and (r, c) == op:
+                    ch = "X"
+                elif (r, c) == me:
+                    ch = "C"
+                elif (r, c) == op:
+                    ch = "O"
+                elif (r, c) == (0, 0):
+                    ch = "B"
+                elif items[r, c] > 0:
+                    ch = "*" if items[r, c] > 9 else str(int(round(float(items[r, c]))))
+                elif hidden and (r == 0 or c == 0):
+                    ch = "~"
+                else:
+                    ch = "."
+                cells.append(ch)
+            rows.append(" ".join(cells))
+        energy = float(state.energy)
+        rows.append(
+            f"energy {energy:g}/{float(params.max_energy):g}, reward {float(state.ep_reward):g}, "
+            f"step {int(state.time)}, opponent {self.strategies[int(state.strategy)]}"
+            + (" (hidden)" if hidden else "")
+        )
+        return "\n".join(rows) + "\n"
