@@ -1,0 +1,256 @@
+"""The DCG environment (section 5.3): step order, energy, fog, history, batching, the strategy draw, bad input."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy import stats
+
+from jaxdc.core import grid
+from jaxdc.dcg import DCG, EnvState, OpponentState
+from jaxdc.dcg.env import CAUGHT, CLEARED, ENERGY, OUTCOMES, RUNNING, TRUNCATED
+
+N = 5
+ENV = DCG(grid_size=N, strategies=("patrol", "restricted", "with_fog", "double_blind"), history=3)
+P = ENV.default_params
+STEP = jax.jit(ENV.step_env)
+STAY, UP, DOWN, LEFT, RIGHT, UP_LEFT = 0, 1, 2, 3, 4, 5
+
+
+def game(pos, opp, strategy="patrol", items=None, energy=15.0, home=None, target=None, env=ENV):
+    """A hand-made state; ``patrol`` with ``home == target`` is an opponent that never moves."""
+    arr = np.zeros((N, N), np.float32)
+    for (r, c), v in ({(4, 0): 1.0} if items is None else items).items():
+        arr[r, c] = v
+    home = opp if home is None else home
+    return EnvState(
+        pos=jnp.asarray(pos, jnp.int32), energy=jnp.float32(energy), items=jnp.asarray(arr),
+        opponent=OpponentState(pos=jnp.asarray(opp, jnp.int32), home=jnp.asarray(home, jnp.int32),
+                               target=jnp.asarray(home if target is None else target, jnp.int32),
+                               phase=jnp.int32(0)),
+        strategy=jnp.int32(env.strategies.index(strategy)),
+        history=jnp.zeros((N, N, env.history), jnp.float32), time=jnp.int32(0), outcome=jnp.int32(RUNNING),
+        ep_reward=jnp.float32(0), ep_energy=jnp.int32(0),
+    )
+
+
+def step(s, a, env=ENV, params=P, seed=0):
+    fn = STEP if env is ENV else jax.jit(env.step_env)
+    return fn(jax.random.PRNGKey(seed), s, jnp.int32(a), params)
+
+
+# -- the order of a step -----------------------------------------------------------------------
+
+
+def test_opponent_moves_first_and_catches_before_the_collector_moves():
+    # restricted opponent at (1,2) steps left onto the collector at (1,1); the collector's "right"
+    # (into the cell the opponent left, which holds an item) never happens.
+    s = game((1, 1), (1, 2), "restricted", items={(1, 2): 1.0, (4, 4): 1.0})
+    _, s2, r, term, trunc, info = step(s, RIGHT)
+    assert int(info["opponent_action"]) == LEFT
+    assert bool(term) and not bool(trunc) and int(info["outcome"]) == CAUGHT
+    assert tuple(np.asarray(s2.pos)) == (1, 1) and float(r) == 0.0 and float(s2.items[1, 2]) == 1.0
+
+
+def test_swapping_cells_is_not_a_catch():
+    # patrol from (2,2) to (2,4) steps right to (2,3); the collector steps from (2,1) into (2,2).
+    s = game((2, 1), (2, 2), "patrol", home=(2, 2), target=(2, 4))
+    _, s2, _, term, _, info = step(s, RIGHT)
+    assert not bool(term) and int(info["outcome"]) == RUNNING
+    assert tuple(np.asarray(s2.pos)) == (2, 2) and tuple(np.asarray(s2.opponent.pos)) == (2, 3)
+
+
+@pytest.mark.parametrize("counts", [True, False])
+def test_collector_walking_into_the_opponent_is_caught_and_item_rule(counts):
+    env = DCG(grid_size=N, strategies=ENV.strategies, history=3, reward_when_caught=counts)
+    s = game((2, 2), (3, 3), "patrol", items={(3, 2): 1.0, (4, 4): 1.0}, home=(3, 3), target=(3, 1), env=env)
+    _, s2, r, term, _, info = step(s, DOWN, env=env, params=env.default_params)
+    assert tuple(np.asarray(s2.opponent.pos)) == (3, 2) and tuple(np.asarray(s2.pos)) == (3, 2)
+    assert bool(term) and int(info["outcome"]) == CAUGHT
+    assert float(r) == (1.0 if counts else 0.0) and float(info["episode_reward"]) == float(r)
+
+
+# -- energy, base, termination -----------------------------------------------------------------
+
+
+def test_energy_drops_outside_and_refills_in_base():
+    s = game((1, 1), (4, 4), energy=7.0)
+    _, s2, _, term, _, info = step(s, RIGHT)
+    assert float(s2.energy) == 6.0 and not bool(term) and int(info["episode_energy"]) == 1
+    _, s3, _, term, _, _ = step(s, UP_LEFT)
+    assert float(s3.energy) == 15.0 and tuple(np.asarray(s3.pos)) == (0, 0) and not bool(term)
+
+
+def test_energy_zero_disables():
+    _, s2, _, term, _, info = step(game((1, 1), (4, 4), energy=1.0), RIGHT)
+    assert float(s2.energy) == 0.0 and bool(term) and int(info["outcome"]) == ENERGY
+    _, s3, _, term, _, _ = step(game((1, 1), (4, 4), energy=1.0), UP_LEFT)  # reaching the base saves it
+    assert float(s3.energy) == 15.0 and not bool(term)
+
+
+def test_cleared_and_truncated():
+    _, s2, r, term, _, info = step(game((3, 1), (2, 4)), DOWN_LEFT := 7)
+    assert float(r) == 1.0 and bool(term) and int(info["outcome"]) == CLEARED
+    p1 = ENV.make_params(max_steps=1)
+    _, _, _, term, trunc, info = step(game((1, 1), (4, 4)), STAY, params=p1)
+    assert not bool(term) and bool(trunc) and int(info["outcome"]) == TRUNCATED
+
+
+def test_reset_rules():
+    keys = jax.random.split(jax.random.PRNGKey(0), 500)
+    _, s = jax.jit(jax.vmap(ENV.reset_env, in_axes=(0, None)))(keys, ENV.make_params(energy=20.0))
+    assert np.all(np.asarray(s.pos) == 0) and np.all(np.asarray(s.energy) == 20.0)
+    assert np.all(np.asarray(s.items).sum(axis=(1, 2)) == 10)
+    opp, target = np.asarray(s.opponent.pos), np.asarray(s.opponent.target)
+    assert np.all(opp.sum(-1) > 0), "opponent started on the base"
+    assert np.all(target.sum(-1) > 0) and np.all(np.any(target != opp, -1)), "bad patrol target"
+    assert np.all(np.asarray(s.opponent.home) == opp) and np.all(np.asarray(s.history) == 0)
+    assert len({tuple(o) for o in opp}) == N * N - 1  # every non-base cell occurs
+
+
+# -- observations: fog and history ------------------------------------------------------------
+
+
+@pytest.mark.parametrize("strategy,hidden", [("with_fog", False), ("double_blind", True)])
+def test_fog_visibility(strategy, hidden):
+    s = game((0, 2), (3, 3), strategy, energy=9.0)
+    plane = np.asarray(ENV.agent_plane(s))
+    assert plane[0, 2] == 9.0
+    assert plane[3, 3] == (0.0 if hidden else -1.0)
+    assert ("~" in ENV.render_ansi(s, P)) == hidden and ("O" in ENV.render_ansi(s, P)) is True
+    out_of_fog = game((1, 2), (3, 3), strategy)
+    assert np.asarray(ENV.agent_plane(out_of_fog))[3, 3] == -1.0  # visible outside the fog either way
+
+
+def test_history_shifts_newest_first():
+    s = game((2, 2), (4, 4))
+    planes = [np.asarray(ENV.agent_plane(s))]
+    for a in (RIGHT, DOWN, LEFT):
+        obs, s, _, term, _, _ = step(s, a)
+        assert not bool(term)
+        h = np.asarray(s.history)
+        for j in range(ENV.history):
+            want = planes[-1 - j] if j < len(planes) else np.zeros((N, N))
+            np.testing.assert_array_equal(h[..., j], want)
+        planes.append(np.asarray(ENV.agent_plane(s)))
+        np.testing.assert_array_equal(np.asarray(obs)[..., 2:], h)
+        np.testing.assert_array_equal(np.asarray(obs)[..., 1], planes[-1])
+    assert obs.shape == (N, N, 2 + ENV.history)
+
+
+def test_history_keeps_what_the_collector_saw():
+    s = game((1, 2), (4, 4), "double_blind")
+    _, s2, _, _, _, _ = step(s, UP)  # (1,2) -> (0,2): fog; the opponent moved while visible
+    assert np.asarray(s2.history)[..., 0].min() == -1.0  # the old plane showed it
+    _, s3, _, _, _, _ = step(s2, RIGHT)  # still in the fog: the stored plane hides it
+    assert np.asarray(s3.history)[..., 0].min() == 0.0
+
+
+def test_history_fill_first_and_no_history_obs():
+    env = DCG(history=4, history_fill="first")
+    obs, s = env.reset(jax.random.PRNGKey(3))
+    assert obs.shape == (5, 5, 6)
+    for j in range(4):
+        np.testing.assert_array_equal(obs[..., 2 + j], obs[..., 1])
+    env2 = DCG(obs_history=False)
+    assert env2.reset(jax.random.PRNGKey(3))[0].shape == (5, 5, 2) == env2.observation_shape()
+
+
+# -- batching, determinism, the strategy draw ------------------------------------------------------
+
+
+def test_jit_vmap_equals_python_loop():
+    env, p, b, t = DCG(history=2), DCG(history=2).make_params(max_steps=3), 4, 5
+    keys = jax.random.split(jax.random.PRNGKey(7), b)
+    acts = np.random.default_rng(0).integers(0, 9, (t, b)).astype(np.int32)
+    step_keys = jax.random.split(jax.random.PRNGKey(8), t * b).reshape(t, b, 2)
+    vreset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
+    vstep = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
+    obs, s = vreset(keys, p)
+    batched = []
+    for i in range(t):
+        obs, s, r, te, tr, info = vstep(step_keys[i], s, acts[i], p)
+        batched.append((obs, r, te, tr, info["opponent_action"], info["strategy"]))
+    one_step = jax.jit(env.step)
+    for g in range(b):
+        o, sg = jax.jit(env.reset)(keys[g], p)
+        for i in range(t):
+            o, sg, r, te, tr, info = one_step(step_keys[i, g], sg, jnp.int32(acts[i, g]), p)
+            want = (o, r, te, tr, info["opponent_action"], info["strategy"])
+            for x, y in zip(want, batched[i]):
+                np.testing.assert_allclose(np.asarray(x), np.asarray(y)[g])
+    assert np.any(np.stack([np.asarray(x[2]) | np.asarray(x[3]) for x in batched])), "no auto-reset exercised"
+
+
+def test_scan_over_16384_games():
+    env = DCG()
+    p = env.default_params
+    b = 16384
+
+    @jax.jit
+    def run(key):
+        obs, s = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, b), p)
+
+        def body(carry, k):
+            s = carry
+            ka, ks = jax.random.split(k)
+            a = jax.random.randint(ka, (b,), 0, 9)
+            obs, s, r, te, tr, info = jax.vmap(env.step, in_axes=(0, 0, 0, None))(jax.random.split(ks, b), s, a, p)
+            return s, (r.sum(), te.sum(), info["opponent_action"].max())
+
+        return jax.lax.scan(body, s, jax.random.split(key, 3))
+
+    s, (r, te, oa) = run(jax.random.PRNGKey(0))
+    assert s.history.shape == (b, 5, 5, 10) and np.all(np.asarray(oa) < 9) and np.asarray(te).sum() > 0
+
+
+def test_determinism_by_seed():
+    obs1, s1 = jax.jit(ENV.reset)(jax.random.PRNGKey(11), P)
+    obs2, s2 = jax.jit(ENV.reset)(jax.random.PRNGKey(11), P)
+    obs3, _ = jax.jit(ENV.reset)(jax.random.PRNGKey(12), P)
+    for x, y in zip(jax.tree_util.tree_leaves(s1), jax.tree_util.tree_leaves(s2)):
+        np.testing.assert_array_equal(x, y)
+    assert not np.array_equal(obs1, obs3)
+    a = STEP(jax.random.PRNGKey(5), s1, jnp.int32(4), P)
+    b = STEP(jax.random.PRNGKey(5), s2, jnp.int32(4), P)
+    for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
+        np.testing.assert_array_equal(x, y)
+
+
+def test_strategy_draw_is_uniform():
+    keys = jax.random.split(jax.random.PRNGKey(2024), 4000)
+    _, s = jax.jit(jax.vmap(ENV.reset_env, in_axes=(0, None)))(keys, P)
+    counts = np.bincount(np.asarray(s.strategy), minlength=4)
+    assert counts.sum() == 4000 and len(counts) == 4
+    assert stats.chisquare(counts).pvalue > 1e-3, counts
+
+
+# -- bad input ----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "kwargs,name",
+    [({"grid_size": 1}, "grid_size"), ({"history": 0}, "history"), ({"total_reward": 0}, "total_reward"),
+     ({"strategies": ()}, "strategies"), ({"strategies": ("nope",)}, "strategies"),
+     ({"history_fill": "x"}, "history_fill"), ({"opponent_start": "x"}, "opponent_start"),
+     ({"patrol_target": "x"}, "patrol_target"), ({"energy_metric": "x"}, "energy_metric")],
+)
+def test_bad_config(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        DCG(**kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs,name",
+    [({"energy": 0}, "energy"), ({"energy": -3.0}, "energy"), ({"energy": float("nan")}, "energy"),
+     ({"max_steps": 0}, "max_steps"), ({"chase_tie": "x"}, "chase_tie")],
+)
+def test_bad_params(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        ENV.make_params(**kwargs)
+
+
+def test_config_equality_and_outcomes():
+    assert DCG() == DCG() and hash(DCG()) == hash(DCG()) and DCG() != DCG(history=3)
+    assert OUTCOMES == ("running", "caught", "energy", "cleared", "truncated")
+    assert ENV.num_actions == grid.NUM_ACTIONS == 9
