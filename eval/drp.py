@@ -1,7 +1,7 @@
 """DRP command line: plan one graph, rerun the thesis' chapter-3 figures, optimality gaps.
 
     python -m eval.drp plan --graph FILE.json --builder gi --clustering pgc [--json]
-    python -m eval.drp figure 3.1 [--graphs 100 --nodes 100 --alphas 0,5,...,80 --base corner]
+    python -m eval.drp figure 3.1 [--graphs 100 --nodes 100 --alphas 0,5,...,80 --base centre|corner]
     python -m eval.drp gaps [--graphs 200 --nodes 8]
 
 Outputs go to ``results/drp/`` (JSON, CSV and PNG, each written atomically).
@@ -323,7 +323,7 @@ def main(argv=None):
     pf.add_argument("--graphs", type=int, default=100)
     pf.add_argument("--nodes", type=int, default=100)
     pf.add_argument("--alphas", default=",".join(map(str, DEFAULT_ALPHAS)))
-    pf.add_argument("--base", choices=("corner", "centre"), default="corner")
+    pf.add_argument("--base", choices=("corner", "centre"), default="centre")
     pf.add_argument("--seed", type=int, default=0)
     pf.add_argument("--quick", action="store_true", help="10 graphs of 30 nodes")
     pf.add_argument("--force", action="store_true", help="recompute even if cached results exist")
@@ -335,7 +335,7 @@ def main(argv=None):
     pg.add_argument("--nodes", type=int, default=8)
     pg.add_argument("--size", type=float, default=40.0, help="side of the square (small graphs need a small one)")
     pg.add_argument("--alphas", default="0,5,10,20,40")
-    pg.add_argument("--base", choices=("corner", "centre"), default="corner")
+    pg.add_argument("--base", choices=("corner", "centre"), default="centre")
     pg.add_argument("--seed", type=int, default=0)
     pg.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)

@@ -94,7 +94,7 @@ def expected_reward(D, beta, psi, plan):
 # ----------------------------------------------------------------------------- generator
 
 
-def generate(seed: int, n: int = 100, rewards: str = "4-6", base: str = "corner", psi: float = 0.99,
+def generate(seed: int, n: int = 100, rewards: str = "4-6", base: str = "centre", psi: float = 0.99,
              alpha: float = 20.0, size: float = 100.0) -> Graph:
     """The thesis' set-up (section 3.5): ``n`` nodes uniform in a ``size x size`` square.
 
