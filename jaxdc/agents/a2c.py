@@ -1,0 +1,300 @@
+"""Synchronous advantage actor-critic: Algorithm 10 (section 4.4.3) without threads.
+
+The thesis trains ENN with 16 asynchronous A3C threads. Here ``num_envs``
+environments step in lock-step instead (A2C), which keeps the algorithm and
+removes the threads:
+
+1. every environment acts ``t_max`` steps with the current policy
+   ``pi(a|s; theta')`` (auto-reset: an episode that ends is replaced at once);
+2. the n-step returns of Algorithm 10 are computed backwards from the last
+   state, ``R_i = r_i + gamma R_{i+1}``, bootstrapped with ``V(s_{t+k})``
+   unless the state is terminal (:func:`nstep_returns`);
+3. one Adam step on the loss of section 4.4.3: the policy loss
+   ``-log pi(a_t|s_t) A_t`` with ``A_t = R_t - V(s_t)`` held constant, the
+   Huber value loss on ``R_t - V(s_t)``, and optionally an entropy bonus.
+
+The learning rate is annealed linearly from ``lr`` to 0 over ``total_steps``
+environment steps (section 4.5, "linearly annealed to 0 over the course of
+training"); Adam's betas are 0.9 and 0.999.
+
+Everything per step is a pure function of arrays. :func:`make_train` returns
+the pieces: ``init(key) -> TrainState``, a jitted ``update(state)`` (one
+rollout plus one gradient step), a jitted ``run(state, n)`` (``n`` updates in
+one ``lax.scan``) and ``train(key)`` (a whole run, PureJaxRL style). The
+training state holds everything a run depends on (parameters, optimizer
+state, environment states, RNG key, update counter), so a run split into
+pieces (and checkpointed in between) ends exactly where an uninterrupted one
+does.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from typing import Any, Callable, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import optax
+from flax import struct
+
+from jaxdc.core.env import step_batch
+from jaxdc.core.paths import safest_paths
+from jaxdc.dcp.navigators import HEURISTICS, enn_heuristics
+
+
+@dataclasses.dataclass(frozen=True)
+class A2CConfig:
+    """Hyperparameters; defaults are those of section 4.5 unless noted.
+
+    Attributes:
+      total_steps: ``T_max``, environment steps over all environments (the
+        thesis' "1 million steps"); the learning rate reaches 0 there.
+      num_envs: parallel environments (the thesis' 16 threads).
+      t_max: rollout length per update (the thesis' maximum batch size 32).
+      gamma: discount factor (0.99).
+      lr: initial Adam learning rate (1e-4), annealed linearly to 0.
+      b1, b2: Adam's betas (0.9, 0.999).
+      value_coef: weight of the Huber value loss (1.0: the thesis adds the two
+        terms of its loss).
+      entropy_coef: weight of the entropy bonus. Default 0.01, the value of
+        A3C [25] from which Algorithm 10 is adopted; the thesis says its loss
+        "mainly consists of two terms", and names no third. Set 0 for the two
+        terms alone.
+      max_grad_norm: clip the global gradient norm (off by default; the thesis
+        names no clipping).
+      reset_slots: fresh initial states drawn per step for the environments that
+        finished (:func:`jaxdc.core.env.step_batch`); ``None`` draws one per
+        environment.
+      unroll: ``unroll`` of the rollout ``lax.scan`` (``t_max`` unrolls it fully;
+        on XLA:CPU a convolution inside a loop body can be much slower).
+    """
+
+    total_steps: int = 1_000_000
+    num_envs: int = 16
+    t_max: int = 32
+    gamma: float = 0.99
+    lr: float = 1e-4
+    b1: float = 0.9
+    b2: float = 0.999
+    value_coef: float = 1.0
+    entropy_coef: float = 0.01
+    max_grad_norm: float | None = None
+    reset_slots: int | None = None
+    unroll: int = 1
+
+    def __post_init__(self):
+        for name in ("total_steps", "num_envs", "t_max", "unroll"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"{name} must be an int >= 1, got {v!r}")
+        if not self.lr > 0:
+            raise ValueError(f"lr (learning rate) must be > 0, got {self.lr!r}")
+        if not 0 <= self.gamma <= 1:
+            raise ValueError(f"gamma must be in [0, 1], got {self.gamma!r}")
+        for name in ("value_coef", "entropy_coef"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        if self.max_grad_norm is not None and not self.max_grad_norm > 0:
+            raise ValueError(f"max_grad_norm must be > 0 or None, got {self.max_grad_norm!r}")
+        if self.total_steps < self.batch_size:
+            raise ValueError(
+                f"total_steps ({self.total_steps}) must be >= num_envs * t_max ({self.batch_size}), "
+                "the environment steps of one update")
+
+    @property
+    def batch_size(self) -> int:
+        """Environment steps per update: ``num_envs * t_max``."""
+        return self.num_envs * self.t_max
+
+    @property
+    def num_updates(self) -> int:
+        """Updates in the whole run: ``total_steps // batch_size``."""
+        return self.total_steps // self.batch_size
+
+
+@struct.dataclass
+class TrainState:
+    """Everything a run depends on; checkpointing this makes a resumed run exact."""
+
+    params: Any
+    opt_state: Any
+    env_state: Any  # batched [num_envs] environment states
+    obs: jax.Array  # [num_envs, N, N, 2]
+    key: jax.Array
+    update: jax.Array  # int32, updates done so far
+
+
+class Transition(NamedTuple):
+    """One step of the batch; stacked by the rollout scan into ``[t_max, num_envs, ...]``."""
+
+    obs: jax.Array
+    heuristics: jax.Array
+    action: jax.Array
+    reward: jax.Array
+    terminated: jax.Array
+    truncated: jax.Array
+    final_value: jax.Array  # V(last obs of the finished episode) where truncated, else 0
+    episode_reward: jax.Array  # the finished episode's reward where done, else 0
+
+
+# -- the pieces of the loss ---------------------------------------------------------------
+def nstep_returns(rewards, terminated, truncated, final_values, last_value, gamma):
+    """The n-step returns of Algorithm 10 over a rollout of ``[T, B]`` steps.
+
+    Backwards from ``R_T = V(s_T)`` (``last_value``), ``R_t = r_t + gamma * X``
+    where ``X`` is 0 if step ``t`` reached a terminal state (Algorithm 10's
+    "0 if s_t is terminal"), ``V`` of the episode's last observation if it was
+    truncated by the step cap (``final_values``; the state is not terminal, so
+    its value bootstraps), and ``R_{t+1}`` otherwise. Hence
+    ``R_t = sum_{i<k} gamma^i r_{t+i} + gamma^k V(s_{t+k})`` (section 4.4.3).
+    """
+
+    def back(next_return, step):
+        r, term, trunc, v_final = step
+        bootstrap = jnp.where(term, 0.0, jnp.where(trunc, v_final, next_return))
+        ret = r + gamma * bootstrap
+        return ret, ret
+
+    _, returns = jax.lax.scan(back, last_value, (rewards, terminated, truncated, final_values), reverse=True)
+    return returns
+
+
+def huber(x, delta: float = 1.0):
+    """Huber loss of section 4.4.3: ``0.5 x^2`` if ``|x| <= delta``, else ``delta (|x| - 0.5 delta)``."""
+    ax = jnp.abs(x)
+    return jnp.where(ax <= delta, 0.5 * x * x, delta * (ax - 0.5 * delta))
+
+
+def lr_schedule(config: A2CConfig):
+    """Learning rate per update: ``lr`` linearly to 0 at update ``num_updates`` (i.e. at ``T_max`` steps)."""
+    return optax.linear_schedule(config.lr, 0.0, config.num_updates)
+
+
+def make_optimizer(config: A2CConfig):
+    """Adam(b1, b2) on :func:`lr_schedule`, with optional global-norm clipping."""
+    adam = optax.adam(lr_schedule(config), b1=config.b1, b2=config.b2)
+    if config.max_grad_norm is None:
+        return adam
+    return optax.chain(optax.clip_by_global_norm(config.max_grad_norm), adam)
+
+
+def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, config: A2CConfig):
+    """Mean over the batch of ``-log pi(a|s) A + value_coef * Huber(R - V) - entropy_coef * H(pi)``.
+
+    ``A = R - V(s)`` is held constant (``stop_gradient``) in the policy term.
+    The thesis accumulates gradients over the batch (a sum); Adam is invariant
+    to that constant factor, so the mean is used.
+    """
+    logits, values = apply_fn(params, obs, heuristics)
+    logp = jax.nn.log_softmax(logits)
+    logp_a = jnp.take_along_axis(logp, actions[:, None], axis=-1)[:, 0]
+    advantage = returns - values
+    policy_loss = -jnp.mean(logp_a * jax.lax.stop_gradient(advantage))
+    value_loss = jnp.mean(huber(advantage))
+    entropy = -jnp.mean(jnp.sum(jnp.exp(logp) * logp, axis=-1))
+    loss = policy_loss + config.value_coef * value_loss - config.entropy_coef * entropy
+    return loss, {"loss": loss, "policy_loss": policy_loss, "value_loss": value_loss, "entropy": entropy}
+
+
+# -- policies -----------------------------------------------------------------------------
+def heuristics_fn(net, env_params, table):
+    """``env_states [B] -> [B, 10, 9]``: the ENN heuristics, or zeros for a network that ignores them."""
+    n_h = len(HEURISTICS)
+
+    def heuristics(env_states):
+        if getattr(net, "uses_heuristics", True):
+            return jax.vmap(enn_heuristics, in_axes=(0, None, None))(env_states, env_params, table)
+        b = env_states.pos.shape[0]
+        return jnp.zeros((b, n_h, net.num_actions), jnp.float32)
+
+    return heuristics
+
+
+def make_policy(net, params, env_params, table=None, greedy: bool = False):
+    """``policy(key, obs, state) -> action`` for one environment, as :func:`jaxdc.core.rollout.run_episodes` wants.
+
+    Samples from ``pi`` (section 4.5: "the output of ENN is used as a
+    stochastic policy"), or takes its argmax if ``greedy``.
+    """
+    if table is None:
+        table = safest_paths(env_params.risk)
+    heuristics = heuristics_fn(net, env_params, table)
+
+    def policy(key, obs, state):
+        batched = jax.tree_util.tree_map(lambda x: x[None], state)
+        logits, _ = net.apply(params, obs[None], heuristics(batched))
+        if greedy:
+            return jnp.argmax(logits[0]).astype(jnp.int32)
+        return jax.random.categorical(key, logits[0]).astype(jnp.int32)
+
+    return policy
+
+
+# -- training -----------------------------------------------------------------------------
+class Trainer(NamedTuple):
+    """What :func:`make_train` returns (see the module docstring)."""
+
+    init: Callable  # key -> TrainState
+    update: Callable  # TrainState -> (TrainState, metrics); jitted
+    run: Callable  # (TrainState, n) -> (TrainState, metrics [n]); jitted, n static
+    train: Callable  # key -> (TrainState, metrics [num_updates])
+    config: A2CConfig
+
+
+def make_train(config: A2CConfig, env, env_params, net) -> Trainer:
+    """Build the A2C trainer of ``net`` on ``env`` with ``env_params`` (validated outside jit)."""
+    if not isinstance(config, A2CConfig):
+        raise TypeError(f"config must be an A2CConfig, got {type(config).__name__}")
+    table = jax.jit(safest_paths)(env_params.risk)  # once per run: the risk map is fixed
+    heuristics = heuristics_fn(net, env_params, table)
+    tx = make_optimizer(config)
+    value_fn = functools.partial(net.apply, method="value")
+
+    def init(key) -> TrainState:
+        k_net, k_env, k_train = jax.random.split(key, 3)
+        obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(
+            jax.random.split(k_env, config.num_envs), env_params)
+        params = net.init(k_net, obs, heuristics(env_state))
+        return TrainState(params, tx.init(params), env_state, obs, k_train, jnp.int32(0))
+
+    def env_step(params, carry, _):
+        env_state, obs, key = carry
+        key, k_act, k_env = jax.random.split(key, 3)
+        h = heuristics(env_state)
+        logits, _ = net.apply(params, obs, h)
+        action = jax.random.categorical(k_act, logits).astype(jnp.int32)
+        obs2, env_state2, reward, term, trunc, info = step_batch(
+            env, k_env, env_state, action, env_params, config.reset_slots)
+        final_value = jax.lax.cond(
+            trunc.any(),
+            lambda: jnp.where(trunc, value_fn(params, info["final_observation"]), 0.0),
+            lambda: jnp.zeros_like(reward))
+        done = term | trunc
+        t = Transition(obs, h, action, reward, term, trunc, final_value,
+                       jnp.where(done, info["episode_reward"], 0.0))
+        return (env_state2, obs2, key), t
+
+    def update(ts: TrainState):
+        (env_state, obs, key), traj = jax.lax.scan(
+            functools.partial(env_step, ts.params), (ts.env_state, ts.obs, ts.key), None,
+            config.t_max, unroll=config.unroll)
+        returns = nstep_returns(traj.reward, traj.terminated, traj.truncated, traj.final_value,
+                                value_fn(ts.params, obs), config.gamma)
+        flat = lambda x: x.reshape((-1,) + x.shape[2:])  # noqa: E731  [T, B, ...] -> [T*B, ...]
+        grads, metrics = jax.grad(a2c_loss, has_aux=True)(
+            ts.params, net.apply, flat(traj.obs), flat(traj.heuristics), flat(traj.action), flat(returns), config)
+        updates, opt_state = tx.update(grads, ts.opt_state, ts.params)
+        params = optax.apply_updates(ts.params, updates)
+        done = traj.terminated | traj.truncated
+        metrics = dict(metrics, episodes=jnp.sum(done), episode_reward_sum=jnp.sum(traj.episode_reward),
+                       reward_per_step=jnp.mean(traj.reward))
+        return TrainState(params, opt_state, env_state, obs, key, ts.update + 1), metrics
+
+    def run(ts: TrainState, n: int):
+        return jax.lax.scan(lambda s, _: update(s), ts, None, n)
+
+    def train(key):
+        return run(init(key), config.num_updates)
+
+    return Trainer(init, jax.jit(update), jax.jit(run, static_argnums=1), jax.jit(train), config)

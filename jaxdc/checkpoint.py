@@ -1,0 +1,125 @@
+"""Orbax checkpoints of a training state, with metadata that is checked on restore.
+
+A checkpoint folder holds numbered steps (the last ``keep`` are kept), each
+with the state (any pytree of arrays, stored as its flax state dict) and a
+JSON ``metadata`` dict (network name, grid size, configuration, ...).
+:func:`restore` refuses, with a ``ValueError`` that names the problem, a
+checkpoint whose metadata differs from what the caller expects (another
+network or environment shape), whose arrays do not match the expected
+shapes, or that cannot be read. Saving is synchronous, so a checkpoint that
+``save`` returned from is complete; orbax writes each step to a temporary
+folder and renames it when done, so a killed run leaves the previous
+checkpoints intact.
+"""
+
+from __future__ import annotations
+
+import os
+
+import jax
+import numpy as np
+import orbax.checkpoint as ocp
+from flax import serialization
+
+
+def _manager(directory, keep: int | None = None) -> ocp.CheckpointManager:
+    options = ocp.CheckpointManagerOptions(max_to_keep=keep, enable_async_checkpointing=False, create=True)
+    return ocp.CheckpointManager(os.path.abspath(os.fspath(directory)), options=options)
+
+
+def save(directory, step: int, state, metadata: dict, keep: int = 3) -> None:
+    """Write ``state`` (a pytree) and ``metadata`` (JSON-able) as checkpoint ``step``; keep the last ``keep``."""
+    tree = serialization.to_state_dict(jax.device_get(state))
+    with _manager(directory, keep) as mngr:
+        mngr.save(int(step), args=ocp.args.Composite(state=ocp.args.StandardSave(tree),
+                                                     metadata=ocp.args.JsonSave(dict(metadata))))
+        mngr.wait_until_finished()
+
+
+def steps(directory) -> list[int]:
+    """The checkpoint steps in ``directory`` (empty if there is none or no folder)."""
+    if not os.path.isdir(os.fspath(directory)):
+        return []
+    with _manager(directory) as mngr:
+        return sorted(mngr.all_steps())
+
+
+def latest_step(directory) -> int | None:
+    s = steps(directory)
+    return s[-1] if s else None
+
+
+def read_metadata(directory, step: int | None = None) -> dict:
+    """The metadata of checkpoint ``step`` (default: the latest)."""
+    step = _pick(directory, step)
+    try:
+        with _manager(directory) as mngr:
+            return dict(mngr.restore(step, args=ocp.args.Composite(metadata=ocp.args.JsonRestore())).metadata)
+    except Exception as e:  # orbax raises many types for a damaged folder
+        raise ValueError(f"checkpoint {directory} step {step}: metadata unreadable (corrupt?): {e}") from e
+
+
+def restore(directory, target, expected: dict | None = None, step: int | None = None):
+    """Restore checkpoint ``step`` (default: latest) into the structure of ``target``: ``(state, metadata)``.
+
+    ``expected`` holds metadata entries that must match exactly (e.g. the
+    network name and grid size); every array must have ``target``'s shape
+    and dtype.
+    """
+    step = _pick(directory, step)
+    metadata = read_metadata(directory, step)
+    mismatched = {k: (metadata.get(k, "<missing>"), v) for k, v in (expected or {}).items()
+                  if _jsonish(metadata.get(k, "<missing>")) != _jsonish(v)}
+    if mismatched:
+        what = "; ".join(f"{k}: checkpoint has {a!r}, expected {b!r}" for k, (a, b) in mismatched.items())
+        raise ValueError(f"checkpoint {directory} step {step} does not fit this run ({what})")
+    template = serialization.to_state_dict(jax.device_get(target))
+    try:
+        with _manager(directory) as mngr:
+            tree = mngr.restore(step, args=ocp.args.Composite(state=ocp.args.StandardRestore())).state
+    except Exception as e:
+        raise ValueError(f"checkpoint {directory} step {step}: state unreadable (corrupt?): {e}") from e
+    _check_like(tree, template, f"checkpoint {directory} step {step}")
+    tree = jax.tree_util.tree_map(lambda t, x: np.asarray(x, dtype=np.asarray(t).dtype), template, tree)
+    return serialization.from_state_dict(target, tree), metadata
+
+
+def _pick(directory, step):
+    available = steps(directory)
+    if not available:
+        raise ValueError(f"no checkpoint found in {directory}")
+    if step is None:
+        return available[-1]
+    if step not in available:
+        raise ValueError(f"checkpoint step {step} not in {directory} (available: {available})")
+    return int(step)
+
+
+def _jsonish(x):
+    """Compare JSON-restored values with Python ones (tuples become lists)."""
+    if isinstance(x, (list, tuple)):
+        return [_jsonish(v) for v in x]
+    if isinstance(x, dict):
+        return {k: _jsonish(v) for k, v in x.items()}
+    return x
+
+
+def _check_like(tree, template, where: str):
+    flat_t = dict(_flatten(template))
+    flat_x = dict(_flatten(tree))
+    if flat_t.keys() != flat_x.keys():
+        missing = sorted(set(flat_t) - set(flat_x))[:5]
+        extra = sorted(set(flat_x) - set(flat_t))[:5]
+        raise ValueError(f"{where} has another structure (missing {missing}, unexpected {extra})")
+    for k, t in flat_t.items():
+        x = flat_x[k]
+        if np.shape(x) != np.shape(t):
+            raise ValueError(f"{where}: {k} has shape {np.shape(x)}, expected {np.shape(t)}")
+
+
+def _flatten(tree, prefix=""):
+    if isinstance(tree, dict):
+        for k, v in tree.items():
+            yield from _flatten(v, f"{prefix}/{k}")
+    else:
+        yield prefix, tree
