@@ -1,6 +1,6 @@
 """jaxdc: JAX toolkit for risk-aware navigation of data-collecting UAVs (DRP, DCP, DCG).
 
-Importing :mod:`jaxdc` registers ``"jaxdc/DCP-v0"`` with gymnasium
+Importing :mod:`jaxdc` registers ``"jaxdc/DCP-v0"`` and ``"jaxdc/DCG-v0"`` with gymnasium
 (``gymnasium.make`` / ``gymnasium.make_vec``; the adapters live in
 :mod:`jaxdc.wrappers.gymnasium` and are imported only when an env is made).
 """
@@ -14,6 +14,7 @@ __all__ = ["DCP", "EnvParams", "EnvState", "make", "__version__"]
 
 _GYM_ID = "jaxdc/DCP-v0"
 _PARAM_KEYS = ("risk", "energy", "max_steps")
+_DCG_GYM_ID = "jaxdc/DCG-v0"
 
 
 def _register() -> None:
@@ -27,6 +28,12 @@ def _register() -> None:
             entry_point="jaxdc.wrappers.gymnasium:make_dcp",
             vector_entry_point="jaxdc.wrappers.gymnasium:make_dcp_vector",
         )
+    if _DCG_GYM_ID not in gymnasium.registry:
+        gymnasium.register(
+            id=_DCG_GYM_ID,
+            entry_point="jaxdc.wrappers.gymnasium:make_dcg",
+            vector_entry_point="jaxdc.wrappers.gymnasium:make_dcg_vector",
+        )
 
 
 _register()
@@ -36,7 +43,8 @@ def make(id: str, **kwargs):
     """``(env, params)`` of the functional environment ``id`` (``"DCP-v0"``).
 
     ``risk``, ``energy`` and ``max_steps`` go to ``DCP.make_params``; the other
-    kwargs to the :class:`DCP` constructor.
+    kwargs to the :class:`DCP` constructor. (The DCG: ``jaxdc.dcg.DCG(...)`` and
+    its ``make_params``, or ``gymnasium.make("jaxdc/DCG-v0")``.)
     """
     if id not in ("DCP-v0", _GYM_ID):
         raise ValueError(f"unknown environment id {id!r}; available: ['DCP-v0']")

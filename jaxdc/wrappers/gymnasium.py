@@ -17,7 +17,10 @@ without a seed continues the stream; the very first unseeded reset draws the
 seed from gymnasium's ``np_random``.
 
 ``make_dcp`` / ``make_dcp_vector`` are the entry points registered as
-``"jaxdc/DCP-v0"`` (see :mod:`jaxdc`).
+``"jaxdc/DCP-v0"``, ``make_dcg`` / ``make_dcg_vector`` those of
+``"jaxdc/DCG-v0"`` (see :mod:`jaxdc`). An environment with a
+``render_ansi(state, params)`` method renders with it, others with
+:func:`render_ansi`.
 """
 
 from __future__ import annotations
@@ -38,7 +41,8 @@ from jaxdc.core.env import Environment
 
 RENDER_MODES = ("ansi",)
 
-__all__ = ["JaxToGymnasium", "JaxVectorEnv", "make_dcp", "make_dcp_vector", "render_ansi", "RENDER_MODES"]
+__all__ = ["JaxToGymnasium", "JaxVectorEnv", "make_dcp", "make_dcp_vector", "make_dcg", "make_dcg_vector",
+           "render_ansi", "RENDER_MODES"]
 
 
 def _check_render_mode(render_mode):
@@ -137,6 +141,11 @@ def render_ansi(state, params) -> str:
     return "\n".join(rows) + "\n"
 
 
+def _renderer(env):
+    """The env's own ``render_ansi(state, params)`` where it has one, else the DCP-style :func:`render_ansi`."""
+    return getattr(env, "render_ansi", None) or render_ansi
+
+
 def _check_action(action, num_actions: int) -> np.int32:
     try:
         a = np.asarray(action)
@@ -222,7 +231,7 @@ class JaxToGymnasium(gymnasium.Env):
             return None
         if self._state is None:
             raise RuntimeError("call reset() before render()")
-        return render_ansi(jax.device_get(self._state), jax.device_get(self.params))
+        return _renderer(self.env)(jax.device_get(self._state), jax.device_get(self.params))
 
 
 class JaxVectorEnv(gymnasium.vector.VectorEnv):
@@ -319,8 +328,9 @@ class JaxVectorEnv(gymnasium.vector.VectorEnv):
         if self._state is None:
             raise RuntimeError("call reset() before render()")
         state, params = jax.device_get((self._state, self.params))
+        render = _renderer(self.env)
         return tuple(
-            render_ansi(jax.tree_util.tree_map(lambda x, i=i: x[i], state), params) for i in range(self.num_envs)
+            render(jax.tree_util.tree_map(lambda x, i=i: x[i], state), params) for i in range(self.num_envs)
         )
 
 
@@ -354,3 +364,39 @@ def make_dcp_vector(num_envs: int = 1, risk="high", energy=(8.0, 16.0), grid_siz
     _check_render_mode(render_mode)
     env, params = _build_dcp(risk, energy, grid_size, total_reward, max_steps, start, dcp_kwargs)
     return JaxVectorEnv(env, num_envs, params, render_mode=render_mode)
+
+
+# -- entry points of "jaxdc/DCG-v0" --------------------------------------------------------
+
+
+def _build_dcg(energy, max_steps, chase_tie, dcg_kwargs):
+    from jaxdc.dcg.env import DCG
+
+    env = DCG(**dcg_kwargs)
+    params = env.make_params(energy=energy, max_steps=max_steps, chase_tie=chase_tie)
+    shape = env.observation_shape(params)
+    low = np.full(shape, -1.0, np.float32)  # agent planes: -1 at the opponent, the energy (>= 0) at the collector
+    low[..., 0] = 0.0  # the item plane
+    return env, params, spaces.Box(low=low, high=np.inf, shape=shape, dtype=np.float32)
+
+
+def make_dcg(energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight",
+             render_mode: str | None = None, **dcg_kwargs) -> JaxToGymnasium:
+    """The DCG as a :class:`JaxToGymnasium` (entry point of ``"jaxdc/DCG-v0"``).
+
+    ``dcg_kwargs`` go to :class:`~jaxdc.dcg.env.DCG` (``grid_size``,
+    ``strategies``, ``history``, ``obs_history``, ...); ``energy``/``max_steps``/
+    ``chase_tie`` to ``DCG.make_params``. Both validate. ``info`` carries
+    ``opponent_action`` (``o_t``) and ``strategy`` (index into ``env.strategies``).
+    """
+    _check_render_mode(render_mode)
+    env, params, space = _build_dcg(energy, max_steps, chase_tie, dcg_kwargs)
+    return JaxToGymnasium(env, params, render_mode=render_mode, observation_space=space)
+
+
+def make_dcg_vector(num_envs: int = 1, energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight",
+                    render_mode: str | None = None, **dcg_kwargs) -> JaxVectorEnv:
+    """The DCG as a :class:`JaxVectorEnv` (vector entry point of ``"jaxdc/DCG-v0"``)."""
+    _check_render_mode(render_mode)
+    env, params, space = _build_dcg(energy, max_steps, chase_tie, dcg_kwargs)
+    return JaxVectorEnv(env, num_envs, params, render_mode=render_mode, observation_space=space)

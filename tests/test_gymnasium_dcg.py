@@ -1,0 +1,65 @@
+"""The gymnasium adapter of the DCG: jaxdc/DCG-v0, check_env, info, render, vector env, jaxdc.make."""
+
+import warnings
+
+import gymnasium
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import jaxdc
+from jaxdc.dcg import DCG
+from jaxdc.dcg.env import OUTCOMES
+
+ID = "jaxdc/DCG-v0"
+
+
+@pytest.mark.parametrize("kwargs", [{}, {"render_mode": "ansi", "strategies": ("patrol", "restricted", "double_blind")},
+                                    {"grid_size": 4, "history": 2, "obs_history": False}])
+def test_check_env(kwargs):
+    env = gymnasium.make(ID, **kwargs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the "infinite bound" advisories
+        check_env(env.unwrapped)
+    n = kwargs.get("grid_size", 5)
+    c = 2 if kwargs.get("obs_history") is False else 2 + kwargs.get("history", 10)
+    assert env.observation_space.shape == (n, n, c)
+    assert env.action_space == gymnasium.spaces.Discrete(9)
+
+
+def test_info_and_render():
+    env = gymnasium.make(ID, render_mode="ansi", max_steps=5).unwrapped
+    obs, _ = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+    text = env.render()
+    assert "C" in text and "O" in text and "energy 15/15" in text
+    for t in range(5):
+        obs, r, term, trunc, info = env.step(4)
+        assert env.observation_space.contains(obs)
+        assert info["outcome"] in OUTCOMES and 0 <= info["opponent_action"] < 9
+        assert info["strategy"] in (0, 1, 2) and info["episode_steps"] == t + 1
+        if term or trunc:
+            break
+    assert term or trunc
+
+
+def test_vector_env_and_make():
+    venv = gymnasium.make_vec(ID, num_envs=3, vectorization_mode="vector_entry_point", history=2,
+                              render_mode="ansi")
+    obs, _ = venv.reset(seed=1)
+    assert obs.shape == (3, 5, 5, 4)
+    obs, r, term, trunc, info = venv.step(np.array([4, 2, 8]))
+    assert info["opponent_action"].shape == (3,) and info["strategy"].shape == (3,)
+    frames = venv.render()
+    assert len(frames) == 3 and all("C" in f for f in frames)
+    venv.close()
+    env = gymnasium.make(ID, energy=10.0, history=2).unwrapped
+    assert env.env == DCG(history=2) and float(env.params.max_energy) == 10.0
+    assert ID in gymnasium.registry and "jaxdc/DCP-v0" in gymnasium.registry and jaxdc.__version__
+
+
+def test_bad_kwargs():
+    with pytest.raises(ValueError, match="strategies"):
+        gymnasium.make(ID, strategies=("nope",))
+    with pytest.raises(ValueError, match="energy"):
+        gymnasium.make(ID, energy=0)
