@@ -1,0 +1,261 @@
+"""Train a network on the DCP with synchronous A2C (sections 4.4.3 and 4.5).
+
+    python -m train.dcp --net enn --risk high --steps 1000000 --seed 0
+
+writes into ``--out`` (default ``runs/dcp-NET-RISK-sSEED``):
+
+* ``config.json``: the run's settings;
+* ``metrics.csv``: one row per evaluation (training losses, the mean reward
+  of the training episodes, and the evaluation over ``--eval-episodes``
+  episodes of the stochastic policy);
+* ``checkpoints/``: orbax checkpoints of the whole training state at every
+  evaluation (the last ``--keep``).
+
+``--resume`` continues from the latest checkpoint and ends with the same
+parameters as an uninterrupted run. A NaN loss stops the run (exit status
+3) before it is checkpointed, so the last checkpoint stays good.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import io
+import math
+import os
+import sys
+import tempfile
+import time
+
+import jax
+import numpy as np
+
+from jaxdc import checkpoint
+from jaxdc.agents.a2c import A2CConfig, lr_schedule, make_policy, make_train
+from jaxdc.core import grid
+from jaxdc.core.paths import safest_paths
+from jaxdc.core.rollout import run_episodes
+from jaxdc.dcp import env as dcp_env
+from jaxdc.dcp.evaluate import summarize
+from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
+from jaxdc.nets import ACTOR_CRITICS, make_net
+
+#: Exit status of a run stopped by a NaN loss.
+EXIT_NAN = 3
+LAYOUTS = ("loop", "scan")
+CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", "loss", "policy_loss", "value_loss",
+              "entropy", "train_episodes", "train_reward", "eval_reward", "eval_reward_sd", "eval_energy",
+              "eval_rpe")
+
+
+def _positive(kind, name):
+    def parse(text):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number > 0, got {text!r}") from None
+        if not v > 0 or (kind is float and math.isinf(v)):
+            raise argparse.ArgumentTypeError(f"{name} must be > 0, got {text!r}")
+        return v
+
+    return parse
+
+
+def _nonnegative_float(name):
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number >= 0, got {text!r}") from None
+        if not v >= 0:
+            raise argparse.ArgumentTypeError(f"{name} must be >= 0, got {text!r}")
+        return v
+
+    return parse
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m train.dcp", description=__doc__.split("\n")[0])
+    p.add_argument("--net", choices=sorted(ACTOR_CRITICS), default="enn", help="network to train")
+    p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default="high", help="risk preset (Table 4.2)")
+    p.add_argument("--grid-size", type=_positive(int, "--grid-size"), default=8)
+    p.add_argument("--total-reward", type=_positive(int, "--total-reward"), default=30)
+    p.add_argument("--energy", nargs=2, type=_positive(float, "--energy"), metavar=("INIT", "MAX"),
+                   default=(8.0, 16.0), help="initial and maximal energy (Tables 4.3-4.8: 8 16)")
+    p.add_argument("--max-steps", type=_positive(int, "--max-steps"), default=1000, help="episode step cap")
+    p.add_argument("--steps", type=_positive(int, "--steps"), default=1_000_000,
+                   help="T_max: environment steps in total (the learning rate reaches 0 there)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--envs", type=_positive(int, "--envs"), default=16, help="parallel environments")
+    p.add_argument("--t-max", type=_positive(int, "--t-max"), default=32, help="rollout length per update")
+    p.add_argument("--lr", type=_positive(float, "--lr"), default=1e-4, help="initial learning rate")
+    p.add_argument("--gamma", type=_nonnegative_float("--gamma"), default=0.99)
+    p.add_argument("--entropy", type=_nonnegative_float("--entropy"), default=A2CConfig.entropy_coef,
+                   help="entropy bonus weight (default 0.01 as in A3C; 0 for the thesis' two loss terms)")
+    p.add_argument("--value-coef", type=_nonnegative_float("--value-coef"), default=A2CConfig.value_coef)
+    p.add_argument("--max-grad-norm", type=_positive(float, "--max-grad-norm"), default=None)
+    p.add_argument("--layout", choices=LAYOUTS, default="loop",
+                   help="loop: one jitted update per Python iteration (faster on CPU); scan: updates in lax.scan")
+    p.add_argument("--out", default=None, help="run folder (default runs/dcp-NET-RISK-sSEED)")
+    p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
+    p.add_argument("--eval-every", type=_positive(int, "--eval-every"), default=100_000,
+                   help="environment steps between evaluations and checkpoints")
+    p.add_argument("--eval-episodes", type=_positive(int, "--eval-episodes"), default=500)
+    p.add_argument("--greedy-eval", action="store_true", help="evaluate the argmax policy instead of sampling")
+    p.add_argument("--keep", type=_positive(int, "--keep"), default=3, help="checkpoints to keep")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return p
+
+
+def _check_writable(folder: str) -> None:
+    try:
+        os.makedirs(folder, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as e:
+        raise ValueError(f"output folder {folder!r} is not writable: {e}") from None
+
+
+def _read_rows(path: str, max_updates: int) -> list[dict]:
+    if not os.path.exists(path):
+        return []
+    with open(path, newline="") as f:
+        return [r for r in csv.DictReader(f) if int(r["updates"]) <= max_updates]
+
+
+def _write_rows(path: str, rows: list[dict]) -> None:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=CSV_FIELDS)
+    w.writeheader()
+    w.writerows(rows)
+    atomic_write(path, buf.getvalue())
+
+
+class Run:
+    """One training run of the command line: settings, trainer, evaluation and checkpoints."""
+
+    def __init__(self, args):
+        if args.energy[0] > args.energy[1]:
+            raise ValueError(f"--energy: initial energy {args.energy[0]} exceeds the maximum {args.energy[1]}")
+        self.args = args
+        self.out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{args.seed}")
+        self.ckpt_dir = os.path.join(self.out, "checkpoints")
+        self.config = A2CConfig(total_steps=args.steps, num_envs=args.envs, t_max=args.t_max, lr=args.lr,
+                                gamma=args.gamma, entropy_coef=args.entropy, value_coef=args.value_coef,
+                                max_grad_norm=args.max_grad_norm)
+        self.env = dcp_env.DCP(grid_size=args.grid_size, total_reward=args.total_reward)
+        self.env_params = self.env.make_params(args.risk, tuple(args.energy), args.max_steps)
+        self.net = make_net(args.net)
+        self.trainer = make_train(self.config, self.env, self.env_params, self.net)
+        self.metadata = {
+            "format": 1, "net": args.net, "grid_size": args.grid_size, "total_reward": args.total_reward,
+            "risk": args.risk, "energy": list(args.energy), "max_steps": args.max_steps, "seed": args.seed,
+            "a2c": dataclasses.asdict(self.config),
+        }
+        table = jax.jit(safest_paths)(self.env_params.risk)
+
+        @jax.jit
+        def evaluate(params, key):
+            policy = make_policy(self.net, params, self.env_params, table, greedy=args.greedy_eval)
+            return run_episodes(self.env, self.env_params, policy, key, args.eval_episodes)
+
+        self._evaluate = evaluate
+
+    # -- state ------------------------------------------------------------------------------
+    def initial_state(self):
+        a = self.args
+        _check_writable(self.out)
+        state = self.trainer.init(jax.random.PRNGKey(a.seed))
+        existing = checkpoint.steps(self.ckpt_dir)
+        if not a.resume:
+            if existing:
+                raise ValueError(f"{self.ckpt_dir} already holds checkpoints {existing}; "
+                                 "pass --resume to continue or choose another --out")
+            atomic_write_json(os.path.join(self.out, "config.json"), self.metadata)
+            return state
+        if not existing:
+            raise ValueError(f"--resume: no checkpoint found in {self.ckpt_dir}")
+        state, _ = checkpoint.restore(self.ckpt_dir, state, self.metadata)
+        return state
+
+    # -- one evaluation row -----------------------------------------------------------------
+    def evaluate(self, params, update: int) -> dict:
+        key = jax.random.fold_in(jax.random.PRNGKey(self.args.seed + 1_000_003), update)
+        s = summarize(self._evaluate(params, key))
+        return {"eval_reward": s["reward"]["mean"], "eval_reward_sd": s["reward"]["sd"],
+                "eval_energy": s["energy"]["mean"], "eval_rpe": s["rpe"]["mean"]}
+
+    # -- the loop ---------------------------------------------------------------------------
+    def train(self) -> dict:
+        """Train to the end (or to a NaN loss); return the last metrics row with ``"status"``."""
+        from tqdm import tqdm
+
+        a, cfg = self.args, self.config
+        state = self.initial_state()
+        update = int(state.update)
+        csv_path = os.path.join(self.out, "metrics.csv")
+        rows = _read_rows(csv_path, update)
+        every = max(1, a.eval_every // cfg.batch_size)
+        schedule = lr_schedule(cfg)
+        bar = tqdm(total=cfg.num_updates * cfg.batch_size, initial=update * cfg.batch_size, unit="step",
+                   unit_scale=True, disable=a.no_progress, dynamic_ncols=True)
+        row = {"status": "done", "updates": update}
+        while update < cfg.num_updates:
+            n = min(every - update % every, cfg.num_updates - update)
+            t0 = time.perf_counter()
+            state, metrics = self._updates(state, n, bar)
+            metrics = jax.device_get(metrics)
+            wall = time.perf_counter() - t0
+            if not np.all(np.isfinite(metrics["loss"])):
+                bar.close()
+                print(f"error: the loss became NaN/inf between updates {update} and {update + n}; stopping. "
+                      f"The last good checkpoint is in {self.ckpt_dir}", file=sys.stderr)
+                return {"status": "nan", "updates": update}
+            update += n
+            episodes = int(np.sum(metrics["episodes"]))
+            row = {"env_steps": update * cfg.batch_size, "updates": update, "wall_s": round(wall, 3),
+                   "steps_per_s": round(n * cfg.batch_size / wall, 1), "lr": float(schedule(update)),
+                   **{k: float(np.mean(metrics[k])) for k in ("loss", "policy_loss", "value_loss", "entropy")},
+                   "train_episodes": episodes,
+                   "train_reward": float(np.sum(metrics["episode_reward_sum"]) / max(episodes, 1)),
+                   **self.evaluate(state.params, update)}
+            rows.append(row)
+            checkpoint.save(self.ckpt_dir, update, state, self.metadata, keep=a.keep)
+            _write_rows(csv_path, rows)
+            bar.set_postfix(eval_reward=f"{row['eval_reward']:.2f}")
+        bar.close()
+        self.final_state = state
+        return dict(row, status="done")
+
+    def _updates(self, state, n: int, bar):
+        if self.args.layout == "scan":
+            state, metrics = self.trainer.run(state, n)
+            bar.update(n * self.config.batch_size)
+            return state, metrics
+        history = []
+        for _ in range(n):
+            state, m = self.trainer.update(state)
+            history.append(m)
+            bar.update(self.config.batch_size)
+        return state, jax.tree_util.tree_map(lambda *x: np.stack(x), *jax.device_get(history))
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    enable_compilation_cache()
+    try:
+        result = Run(args).train()
+    except ValueError as e:
+        parser.error(str(e))
+    if result["status"] == "nan":
+        return EXIT_NAN
+    if "eval_reward" in result:
+        print(f"done: {result['env_steps']} steps, eval reward {result['eval_reward']:.3f} "
+              f"(energy {result['eval_energy']:.2f}, RPE {result['eval_rpe']:.3f})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
