@@ -13,8 +13,9 @@ __version__ = "0.1.0"
 __all__ = ["DCP", "EnvParams", "EnvState", "make", "__version__"]
 
 _GYM_ID = "jaxdc/DCP-v0"
-_PARAM_KEYS = ("risk", "energy", "max_steps")
 _DCG_GYM_ID = "jaxdc/DCG-v0"
+#: keyword arguments that go to ``make_params`` rather than the constructor, per environment
+_PARAM_KEYS = {"DCP-v0": ("risk", "energy", "max_steps"), "DCG-v0": ("energy", "max_steps", "chase_tie")}
 
 
 def _register() -> None:
@@ -40,14 +41,20 @@ _register()
 
 
 def make(id: str, **kwargs):
-    """``(env, params)`` of the functional environment ``id`` (``"DCP-v0"``).
+    """``(env, params)`` of the functional environment ``id``: ``"DCP-v0"`` or ``"DCG-v0"``.
 
-    ``risk``, ``energy`` and ``max_steps`` go to ``DCP.make_params``; the other
-    kwargs to the :class:`DCP` constructor. (The DCG: ``jaxdc.dcg.DCG(...)`` and
-    its ``make_params``, or ``gymnasium.make("jaxdc/DCG-v0")``.)
+    The keywords of ``make_params`` (DCP: ``risk``, ``energy``, ``max_steps``;
+    DCG: ``energy``, ``max_steps``, ``chase_tie``) go there, the others to the
+    environment's constructor.
     """
-    if id not in ("DCP-v0", _GYM_ID):
-        raise ValueError(f"unknown environment id {id!r}; available: ['DCP-v0']")
-    params_kwargs = {k: kwargs.pop(k) for k in _PARAM_KEYS if k in kwargs}
-    env = DCP(**kwargs)
+    name = id.removeprefix("jaxdc/")
+    if name not in _PARAM_KEYS:
+        raise ValueError(f"unknown environment id {id!r}; available: {sorted(_PARAM_KEYS)}")
+    params_kwargs = {k: kwargs.pop(k) for k in _PARAM_KEYS[name] if k in kwargs}
+    if name == "DCP-v0":
+        env = DCP(**kwargs)
+    else:
+        from jaxdc.dcg.env import DCG
+
+        env = DCG(**kwargs)
     return env, env.make_params(**params_kwargs)

@@ -92,8 +92,8 @@ def test_invalid_inputs():
         gymnasium.make_vec(ID, num_envs=2, vectorization_mode="vector_entry_point", grid_size=1)
     with pytest.raises(ValueError, match="risk preset"):
         jaxdc.make("DCP-v0", risk="extreme")
-    with pytest.raises(ValueError):
-        jaxdc.make("DCG-v0")
+    with pytest.raises(ValueError, match="unknown environment id"):
+        jaxdc.make("DCX-v0")
     env = make_dcp()
     with pytest.raises(RuntimeError):
         env.step(0)
@@ -101,6 +101,13 @@ def test_invalid_inputs():
     for bad in (9, -1, 1.5, "up"):
         with pytest.raises(ValueError, match="action"):
             env.step(bad)
+
+
+def test_jaxdc_make_dcg():
+    env, params = jaxdc.make("DCG-v0", grid_size=4, energy=10, max_steps=30)
+    assert env.grid_size == 4 and int(params.max_steps) == 30
+    obs, _ = env.reset(jax.random.PRNGKey(0), params)
+    assert obs.shape[:2] == (4, 4)
 
 
 def test_jaxdc_make():
