@@ -11,6 +11,8 @@ Measures env-steps/s, all in one process so that the ratios are taken side by si
   over the batch, inside ``lax.scan`` over T steps, jitted);
 * ``jax_safe_reward``: the Safe-Reward navigator (Algorithm 9) acting on the batched
   states, stepping with auto-reset (the safest-path table is computed once, untimed);
+* ``jax_dcg_random``: the same for the DCG (section 5.5.1 setting) at every batch size;
+  the issue's target is DCG throughput within 2x of DCP's at the same batch size;
 * ``numpy_random``: :mod:`benchmarks.numpy_dcp`, one environment, Python loop, random
   policy (a NumPy Safe-Reward row is not provided: it would need a NumPy port of the
   LPG planner, Algorithm 7, which is out of scope for a baseline);
@@ -67,8 +69,14 @@ def log(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
 
-def make_env():
-    """The benchmarked configuration (Table 4.3's): 8x8, 30 units, high risk, energy (8, 16)."""
+def make_env(game: str = "dcp"):
+    """The benchmarked configurations: the DCP of Table 4.3 (8x8, 30 units, high risk, energy (8, 16))
+    or the DCG of section 5.5.1 (5x5, 10 units, the three standard opponents, energy 15, history 10)."""
+    if game == "dcg":
+        from jaxdc.dcg.env import DCG
+
+        env = DCG()
+        return env, env.make_params(energy=15.0, max_steps=200)
     env = DCP(grid_size=8, total_reward=30)
     return env, env.make_params("high", (8.0, 16.0), max_steps=200)
 
@@ -118,13 +126,14 @@ def make_rollout(env, params, batch: int, steps: int, policy: str, reset_slots: 
     return rollout
 
 
-def bench_jax(policy: str, batch: int, steps: int, repeats: int, seed: int = 0, reset_slots=None) -> dict:
-    env, params = make_env()
+def bench_jax(policy: str, batch: int, steps: int, repeats: int, seed: int = 0, reset_slots=None,
+              game: str = "dcp") -> dict:
+    env, params = make_env(game)
     rollout = make_rollout(env, params, batch, steps, policy, reset_slots)
     key = jax.random.key(seed)
     first, best = _time_best(lambda: rollout(key), repeats)
     n = batch * steps
-    impl = f"jax_{policy}" + ("" if reset_slots is None else " [reset_slots=B/4]")
+    impl = ("jax_" if game == "dcp" else "jax_dcg_") + policy + ("" if reset_slots is None else " [reset_slots=B/4]")
     return {"impl": impl, "batch": batch, "steps": steps, "env_steps": n,
             "seconds": best, "compile_s": max(first - best, 0.0), "steps_per_s": n / best}
 
@@ -193,6 +202,12 @@ def run(args) -> dict:
                 log(f"{row['impl']:>16} B={b:<6} T={t:<5} {row['steps_per_s']:>14,.0f} steps/s "
                     f"(compile {row['compile_s']:.2f} s)")
                 rows.append(row)
+    for b in ([min(args.batch_sizes)] if args.quick else args.batch_sizes):
+        t = steps_for(b, args.steps, args.quick)
+        row = bench_jax("random", b, t, repeats, game="dcg")
+        log(f"{row['impl']:>16} B={b:<6} T={t:<5} {row['steps_per_s']:>14,.0f} steps/s "
+            f"(compile {row['compile_s']:.2f} s)")
+        rows.append(row)
     np_steps = args.numpy_steps or (2_000 if args.quick else 50_000)
     row = bench_numpy(np_steps, repeats)
     log(f"{row['impl']:>16} B=1      T={np_steps:<5} {row['steps_per_s']:>14,.0f} steps/s")
@@ -233,6 +248,11 @@ def targets(result: dict) -> dict:
         out["random_4096_ge_5M"] = {"value": rate, "target": TARGET_RANDOM_4096, "met": rate >= TARGET_RANDOM_4096}
         out["random_4096_ge_10x_numpy"] = {"value": ratio, "target": TARGET_RATIO_NUMPY,
                                            "met": ratio >= TARGET_RATIO_NUMPY}
+    dcg = {r["batch"]: r["steps_per_s"] for r in result["rows"] if r["impl"] == "jax_dcg_random"}
+    dcp = {r["batch"]: r["steps_per_s"] for r in result["rows"] if r["impl"] == "jax_random"}
+    for b in sorted(set(dcg) & set(dcp)):
+        ratio = dcp[b] / dcg[b]
+        out[f"dcg_within_2x_of_dcp_at_{b}"] = {"value": ratio, "target": 2.0, "met": ratio <= 2.0}
     t43 = result.get("table43")
     if t43 and t43["episodes"] == 10_000 and tuple(t43["navigators"]) == TABLE43_NAVIGATORS:
         out["table43_lt_5s"] = {"value": t43["run_s"], "target": TARGET_TABLE43_S,
