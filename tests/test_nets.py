@@ -77,3 +77,17 @@ def test_linear_is_linear_in_the_planes():
 def test_unknown_net():
     with pytest.raises(ValueError, match="net must be one of"):
         make_net("eqn2")
+
+
+def test_eqn_q_values_are_the_weighted_sum_of_heuristics():
+    from jaxdc.nets import EQN
+
+    net = EQN()
+    obs, heur = _inputs(2)
+    params = net.init(jax.random.PRNGKey(0), obs, heur)
+    q, inter = net.apply(params, obs, heur, mutable=["intermediates"])
+    w = np.asarray(inter["intermediates"]["head"]["w"][0])
+    b = np.asarray(inter["intermediates"]["head"]["b"][0])
+    assert q.shape == (B, 9)
+    np.testing.assert_allclose(np.asarray(q), np.einsum("bia,bia->ba", w, np.asarray(heur)) + b, rtol=1e-5, atol=1e-5)
+    assert "value_out" not in params["params"]
