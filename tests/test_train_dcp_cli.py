@@ -113,3 +113,13 @@ def test_bad_folders_and_checkpoints(finished_run, tmp_path, capsys):
             with open(os.path.join(root, name), "wb") as f:
                 f.write(b"\x00garbage")
     _fails(capsys, TINY + ["--out", corrupt, "--resume"], "corrupt")
+
+
+def test_eqn_trains_with_nstep_q(tmp_path):
+    out = str(tmp_path / "eqn")
+    argv = [a if a != "linear" else "eqn" for a in TINY] + ["--out", out, "--target-every", "256"]
+    assert cli.main(argv) == 0
+    with open(os.path.join(out, "metrics.csv")) as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 2 and float(rows[-1]["epsilon"]) == pytest.approx(0.05) and rows[-1]["q_mean"] != ""
+    assert checkpoint.read_metadata(os.path.join(out, "checkpoints"))["net"] == "eqn"

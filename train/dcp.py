@@ -1,4 +1,4 @@
-"""Train a network on the DCP with synchronous A2C (sections 4.4.3 and 4.5).
+"""Train a network on the DCP: synchronous A2C (sections 4.4.3, 4.5) or n-step Q-learning for EQN (4.5.5).
 
     python -m train.dcp --net enn --risk high --steps 1000000 --seed 0
 
@@ -32,20 +32,24 @@ import jax
 import numpy as np
 
 from jaxdc import checkpoint
-from jaxdc.agents.a2c import A2CConfig, lr_schedule, make_policy, make_train
+from jaxdc.agents import a2c, nstep_q
+from jaxdc.agents.a2c import A2CConfig, lr_schedule
 from jaxdc.core import grid
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
-from jaxdc.nets import ACTOR_CRITICS, make_net
+from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
 
 #: Exit status of a run stopped by a NaN loss.
 EXIT_NAN = 3
 LAYOUTS = ("loop", "scan")
-CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", "loss", "policy_loss", "value_loss",
-              "entropy", "train_episodes", "train_reward", "eval_reward", "eval_reward_sd", "eval_energy",
+#: Networks of the command line: the actor-critics train with A2C, EQN with n-step Q-learning.
+NETS = tuple(sorted(ACTOR_CRITICS)) + ("eqn",)
+LOSS_METRICS = ("loss", "policy_loss", "value_loss", "entropy", "q_mean", "epsilon")
+CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", *LOSS_METRICS, "train_episodes",
+              "train_reward", "eval_reward", "eval_reward_sd", "eval_energy",
               "eval_rpe")
 
 
@@ -77,7 +81,8 @@ def _nonnegative_float(name):
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m train.dcp", description=__doc__.split("\n")[0])
-    p.add_argument("--net", choices=sorted(ACTOR_CRITICS), default="enn", help="network to train")
+    p.add_argument("--net", choices=NETS, default="enn",
+                   help="network to train (enn, linear, cnn: A2C; eqn: n-step Q-learning)")
     p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default="high", help="risk preset (Table 4.2)")
     p.add_argument("--grid-size", type=_positive(int, "--grid-size"), default=8)
     p.add_argument("--total-reward", type=_positive(int, "--total-reward"), default=30)
@@ -95,6 +100,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="entropy bonus weight (default 0.01 as in A3C; 0 for the thesis' two loss terms)")
     p.add_argument("--value-coef", type=_nonnegative_float("--value-coef"), default=A2CConfig.value_coef)
     p.add_argument("--max-grad-norm", type=_positive(float, "--max-grad-norm"), default=None)
+    p.add_argument("--target-every", type=_positive(int, "--target-every"), default=40_000,
+                   help="eqn: environment steps between target-network copies")
+    p.add_argument("--eval-epsilon", type=_nonnegative_float("--eval-epsilon"), default=nstep_q.EVAL_EPSILON,
+                   help="eqn: epsilon of the evaluation policy (section 4.5.5: 0.05)")
     p.add_argument("--layout", choices=LAYOUTS, default="loop",
                    help="loop: one jitted update per Python iteration (faster on CPU); scan: updates in lax.scan")
     p.add_argument("--out", default=None, help="run folder (default runs/dcp-NET-RISK-sSEED)")
@@ -126,7 +135,7 @@ def _read_rows(path: str, max_updates: int) -> list[dict]:
 
 def _write_rows(path: str, rows: list[dict]) -> None:
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=CSV_FIELDS)
+    w = csv.DictWriter(buf, fieldnames=CSV_FIELDS, restval="")
     w.writeheader()
     w.writerows(rows)
     atomic_write(path, buf.getvalue())
@@ -141,26 +150,38 @@ class Run:
         self.args = args
         self.out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{args.seed}")
         self.ckpt_dir = os.path.join(self.out, "checkpoints")
-        self.config = A2CConfig(total_steps=args.steps, num_envs=args.envs, t_max=args.t_max, lr=args.lr,
-                                gamma=args.gamma, entropy_coef=args.entropy, value_coef=args.value_coef,
-                                max_grad_norm=args.max_grad_norm)
+        common = dict(total_steps=args.steps, num_envs=args.envs, t_max=args.t_max, lr=args.lr, gamma=args.gamma,
+                      max_grad_norm=args.max_grad_norm)
+        if args.net == "eqn":
+            algo, self.net = nstep_q, EQN()
+            self.config = nstep_q.QConfig(**common, target_every=args.target_every)
+        else:
+            algo, self.net = a2c, make_net(args.net)
+            self.config = A2CConfig(**common, entropy_coef=args.entropy, value_coef=args.value_coef)
         self.env = dcp_env.DCP(grid_size=args.grid_size, total_reward=args.total_reward)
         self.env_params = self.env.make_params(args.risk, tuple(args.energy), args.max_steps)
-        self.net = make_net(args.net)
-        self.trainer = make_train(self.config, self.env, self.env_params, self.net)
+        self.trainer = algo.make_train(self.config, self.env, self.env_params, self.net)
         self.metadata = {
             "format": 1, "net": args.net, "grid_size": args.grid_size, "total_reward": args.total_reward,
             "risk": args.risk, "energy": list(args.energy), "max_steps": args.max_steps, "seed": args.seed,
-            "a2c": dataclasses.asdict(self.config),
+            "algorithm": dataclasses.asdict(self.config),
         }
         table = jax.jit(safest_paths)(self.env_params.risk)
 
         @jax.jit
         def evaluate(params, key):
-            policy = make_policy(self.net, params, self.env_params, table, greedy=args.greedy_eval)
+            policy = self.policy(params, table)
             return run_episodes(self.env, self.env_params, policy, key, args.eval_episodes)
 
         self._evaluate = evaluate
+
+    def policy(self, params, table=None):
+        """The evaluation policy: sampled from pi (argmax if --greedy-eval); EQN: epsilon-greedy."""
+        a = self.args
+        if a.net == "eqn":
+            return nstep_q.make_q_policy(self.net, params, self.env_params, table,
+                                         epsilon=0.0 if a.greedy_eval else a.eval_epsilon)
+        return a2c.make_policy(self.net, params, self.env_params, table, greedy=a.greedy_eval)
 
     # -- state ------------------------------------------------------------------------------
     def initial_state(self):
@@ -216,7 +237,7 @@ class Run:
             episodes = int(np.sum(metrics["episodes"]))
             row = {"env_steps": update * cfg.batch_size, "updates": update, "wall_s": round(wall, 3),
                    "steps_per_s": round(n * cfg.batch_size / wall, 1), "lr": float(schedule(update)),
-                   **{k: float(np.mean(metrics[k])) for k in ("loss", "policy_loss", "value_loss", "entropy")},
+                   **{k: float(np.mean(metrics[k])) for k in LOSS_METRICS if k in metrics},
                    "train_episodes": episodes,
                    "train_reward": float(np.sum(metrics["episode_reward_sum"]) / max(episodes, 1)),
                    **self.evaluate(state.params, update)}
