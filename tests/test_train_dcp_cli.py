@@ -115,11 +115,13 @@ def test_bad_folders_and_checkpoints(finished_run, tmp_path, capsys):
     _fails(capsys, TINY + ["--out", corrupt, "--resume"], "corrupt")
 
 
-def test_eqn_trains_with_nstep_q(tmp_path):
-    out = str(tmp_path / "eqn")
-    argv = [a if a != "linear" else "eqn" for a in TINY] + ["--out", out, "--target-every", "256"]
-    assert cli.main(argv) == 0
-    with open(os.path.join(out, "metrics.csv")) as f:
-        rows = list(csv.DictReader(f))
-    assert len(rows) == 2 and float(rows[-1]["epsilon"]) == pytest.approx(0.05) and rows[-1]["q_mean"] != ""
-    assert checkpoint.read_metadata(os.path.join(out, "checkpoints"))["net"] == "eqn"
+def test_eqn_is_wired_to_nstep_q(tmp_path):
+    """--net eqn builds EQN with n-step Q-learning and an epsilon-greedy evaluation (training: test_nstep_q)."""
+    from jaxdc.agents import nstep_q
+    from jaxdc.nets import EQN
+
+    argv = [a if a != "linear" else "eqn" for a in TINY] + ["--out", str(tmp_path / "eqn"), "--target-every", "256"]
+    run = cli.Run(cli.build_parser().parse_args(argv))
+    assert isinstance(run.net, EQN) and isinstance(run.config, nstep_q.QConfig)
+    assert run.config.target_period == 256 // 32 and run.metadata["net"] == "eqn"
+    assert run.metadata["algorithm"]["target_every"] == 256
