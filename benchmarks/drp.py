@@ -7,6 +7,12 @@
 2. The figure-3.1 experiment on ``--fig-graphs`` graphs x ``--fig-alphas``
    (all 12 combinations), both ways; the full experiment (100 graphs x 17
    alphas) is extrapolated linearly in the number of instances and said so.
+3. ``--nc-cache`` (instead of 1-2): NC with and without the append-builder tour
+   cache, side by side in one process, on ``--cc-graphs`` graphs of
+   ``--cc-nodes`` nodes x ``--cc-alphas`` (default: the figure's 17 values),
+   for ``--cc-builders``; checks the clusters are identical.
+
+    python -m benchmarks.drp --nc-cache [--cc-graphs 3 --cc-nodes 100 --cc-builders ng,tl --json]
 
 The reference uses the same formulas (Eqs. 3.2-3.8), NumPy-vectorised over
 candidates within a step, Python loops over steps, NC re-evaluating only pairs
@@ -125,6 +131,37 @@ def np_solve(builder, clustering, D, beta, psi, alpha):
 # ----------------------------------------------------------------------------- benchmark
 
 
+def nc_cache_compare(graphs, nodes, alphas, builders, rounds=("cached", "uncached", "cached", "uncached")):
+    """NC over ``graphs x alphas`` instances with and without the tour cache, timed in one process.
+
+    The first run of each path includes its compilation; a repeated path is timed warm.
+    """
+    from eval.drp import graph_arrays
+    from jaxdc.drp import clustering as cl
+    from jaxdc.drp import world
+
+    gs = [world.generate(i, n=nodes) for i in range(graphs)]
+    D, beta, psi = graph_arrays(gs)
+    gidx = np.repeat(np.arange(graphs), len(alphas))
+    al = np.tile(np.asarray(alphas, np.float32), graphs)
+    rows = []
+    for b in builders:
+        members, row = {}, {"builder": b, "graphs": graphs, "nodes": nodes, "alphas": len(alphas)}
+        for k, mode in enumerate(rounds):
+            t0 = time.perf_counter()
+            m = cl.nc(b, D, beta, psi, gidx, al, cache=(mode == "cached"))
+            dt = time.perf_counter() - t0
+            tag = mode + ("_warm" if mode in rounds[:k] else "_first")
+            row[f"{tag}_s"] = dt
+            if mode in members:
+                assert (members[mode] == m).all()
+            members[mode] = m
+            print(json.dumps({"builder": b, tag: dt}), file=sys.stderr)
+        row["identical_clusters"] = bool((members["cached"] == members["uncached"]).all())
+        rows.append(row)
+    return rows
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--nodes", type=int, default=100)
@@ -134,7 +171,19 @@ def main(argv=None):
     p.add_argument("--fig-alphas", default="0,20,40,60")
     p.add_argument("--skip-reference-nc", action="store_true", help="skip the slow NumPy NC solves")
     p.add_argument("--json", action="store_true")
+    p.add_argument("--nc-cache", action="store_true", help="only the NC cached-vs-uncached comparison")
+    p.add_argument("--cc-graphs", type=int, default=3)
+    p.add_argument("--cc-nodes", type=int, default=100)
+    p.add_argument("--cc-alphas", default=",".join(str(5 * i) for i in range(17)))
+    p.add_argument("--cc-builders", default="ng,tl")
+    p.add_argument("--cc-rounds", default="cached,uncached,cached,uncached",
+                   help="order of the runs; a repeated path is timed warm")
     args = p.parse_args(argv)
+    if args.nc_cache:
+        rows = nc_cache_compare(args.cc_graphs, args.cc_nodes, [float(a) for a in args.cc_alphas.split(",")],
+                                args.cc_builders.split(","), tuple(args.cc_rounds.split(",")))
+        print(json.dumps(rows) if args.json else json.dumps(rows, indent=1))
+        return
 
     from eval.drp import graph_arrays, run_experiment, solve_instances
     from jaxdc.drp import world

@@ -8,6 +8,9 @@
   builds of one round, over all instances, go to one jitted, vmapped call per
   cluster-size bucket. After a merge only the pairs that involve the new
   cluster are re-evaluated; the initial all-pairs round is one batched call.
+  For the append builders (whose tours do not depend on alpha) a tour is
+  built once per (graph, node set) and shared by all robot values and rounds
+  (:class:`_TourCache`); GI's tours depend on alpha and are not shared.
 * :func:`pgc` is the Progressive Gain-aware Clustering, Algorithms 3-4, with
   its rooted k-MST estimate of a cluster's gain.
 * :func:`plan_tours` is lines 3-5 of Algorithms 5 and 6: one tour per cluster.
@@ -99,7 +102,105 @@ def evaluate_clusters(criterion, D, beta, psi, gidx, alpha, masks, with_tours=Fa
     return (rewards, tours) if with_tours else rewards
 
 
-def nc(criterion, D, beta, psi, gidx, alpha, progress=None):
+def _tour_parts(D, psi, tour):
+    """``P_t(0)`` of a compacted tour: its return probability, computed as in :func:`tour_gain`."""
+    valid = tour >= 0
+    node = jnp.where(valid, tour, 0)
+    prev = jnp.concatenate([jnp.zeros((1,), node.dtype), node[:-1]])
+    reach = jnp.cumsum(jnp.where(valid, D[prev, node], 0.0))
+    last = jnp.where(valid.any(), node[jnp.maximum(valid.sum() - 1, 0)], 0)
+    return jnp.where(valid.any(), psi ** (reach[-1] + D[last, 0]), 0.0)
+
+
+@partial(jax.jit, static_argnames=("criterion", "K"))
+def _evaluate_parts(criterion, K, D, beta, psi, gidx, masks):
+    """``(collected, p_return)`` of the append-builder tours of ``masks [J, n+1]`` (graph ``gidx``).
+
+    The append criteria never look at ``beta(0) = alpha`` (node 0 is never a
+    candidate and is masked out of every sum), so the tour is the same for
+    every robot value; it is built with ``beta(0) = 0``, which makes the
+    builder's reward exactly the collected part ``sum_v P_t(v) beta(v)``.
+    ``R(C) = collected + p_return * alpha - alpha`` (:func:`_combine`).
+    """
+
+    def one(g, m):
+        idx = jnp.argsort(~m, stable=True)[:K]
+        valid = jnp.arange(K) < m.sum()
+        sub = jnp.concatenate([jnp.zeros((1,), idx.dtype), idx])
+        Dg = D[g]
+        Ds = Dg[sub[:, None], sub[None, :]]
+        bs = beta[g][sub].at[0].set(0.0)
+        ms = jnp.concatenate([jnp.zeros((1,), bool), valid])
+        tour, collected = build_tour(criterion, Ds, bs, psi[g], ms)
+        return collected, _tour_parts(Ds, psi[g], tour)
+
+    return jax.vmap(one)(gidx, masks)
+
+
+def evaluate_parts(criterion, D, beta, psi, gidx, masks):
+    """:func:`_evaluate_parts` for a batch of any sizes (bucketed, chunked like :func:`evaluate_clusters`)."""
+    masks = np.asarray(masks, bool)
+    J, n1 = masks.shape
+    n = n1 - 1
+    collected = np.zeros(J, np.float32)
+    p_return = np.zeros(J, np.float32)
+    sizes = masks.sum(1)
+    buckets = np.array([_bucket(s, n) for s in range(n + 1)])[sizes]
+    for K in np.unique(buckets):
+        sel = np.flatnonzero(buckets == K)
+        sel = sel[np.argsort(sizes[sel], kind="stable")]
+        big = _chunk(int(K), len(sel))
+        for start in range(0, len(sel), big):
+            part = sel[start:start + big]
+            width = _chunk(int(K), len(part))
+            pad = np.concatenate([part, np.full(width - len(part), part[0])])
+            c, p = _evaluate_parts(criterion, int(K), D, beta, psi, jnp.asarray(gidx[pad]), jnp.asarray(masks[pad]))
+            collected[part] = np.asarray(c)[: len(part)]
+            p_return[part] = np.asarray(p)[: len(part)]
+    return collected, p_return
+
+
+def _combine(collected, p_return, alpha):
+    """``R(C)`` from the alpha-free parts, in float32 and in :func:`tour_reward`'s order of operations."""
+    collected = np.asarray(collected, np.float32)
+    alpha = np.asarray(alpha, np.float32)
+    return (collected + np.asarray(p_return, np.float32) * alpha) - alpha
+
+
+class _TourCache:
+    """``(graph, node set) -> (collected, p_return)`` for the append builders, shared by all
+    robot values of a graph and by all NC rounds: each node set's tour is built once."""
+
+    def __init__(self, criterion, D, beta, psi):
+        self.args = (criterion, D, beta, psi)
+        self.index = {}
+        self.collected = np.zeros(0, np.float32)
+        self.p_return = np.zeros(0, np.float32)
+        self.built = 0
+
+    def rewards(self, gidx, masks, alpha):
+        gidx = np.asarray(gidx, np.int32)
+        masks = np.asarray(masks, bool)
+        keys = np.concatenate([gidx.astype("<i4").view(np.uint8).reshape(-1, 4), np.packbits(masks, axis=1)], 1)
+        keys = np.ascontiguousarray(keys).view(np.dtype((np.void, keys.shape[1])))[:, 0]
+        uniq, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        slot = np.array([self.index.get(k.tobytes(), -1) for k in uniq], np.int64)
+        new = np.flatnonzero(slot < 0)
+        if len(new):
+            rows = first[new]
+            c, p = evaluate_parts(*self.args[:4], gidx[rows], masks[rows])
+            base = len(self.collected)
+            self.collected = np.concatenate([self.collected, c])
+            self.p_return = np.concatenate([self.p_return, p])
+            slot[new] = base + np.arange(len(new))
+            for k, s in zip(uniq[new], slot[new]):
+                self.index[k.tobytes()] = int(s)
+            self.built += len(new)
+        s = slot[inverse.reshape(-1)]
+        return _combine(self.collected[s], self.p_return[s], alpha)
+
+
+def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True):
     """Algorithm 1 (NC) with ``BuildTour'_criterion`` as evaluator, for many instances at once.
 
     Args:
@@ -108,6 +209,10 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None):
         replaced by each instance's ``alpha``); psi: ``[G]``.
       gidx, alpha: ``[I]`` the graph and robot value of each instance.
       progress: optional callable, called once per merge round.
+      cache: for the append builders, build each (graph, node set)'s tour only
+        once and share it across robot values and rounds (the tour does not
+        depend on alpha; see :func:`_evaluate_parts`). Same result as
+        ``cache=False``. GI's tours depend on alpha, so GI never caches.
 
     Returns:
       ``member [I, n+1, n+1]`` bool: ``member[i, s]`` is the cluster in slot ``s``
@@ -132,15 +237,28 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None):
     inst = np.repeat(np.arange(I), n1 - 1)
     nodes = np.tile(np.arange(1, n1), I)
     R = np.zeros((I, n1), np.float32)
-    R[inst, nodes] = evaluate_clusters(criterion, D, beta, psi, gidx[inst], alpha[inst], eye[nodes])
     a_idx, b_idx = np.triu_indices(n1 - 1, 1)
     a_idx, b_idx = a_idx + 1, b_idx + 1
     Rpair = np.full((I, n1, n1), -np.inf, np.float32)
     P = len(a_idx)
-    for i in range(I):  # one instance's pairs at a time keeps the mask array small
+    tc = _TourCache(criterion, D, beta, psi) if cache and criterion != "gi" else None
+    if tc is not None:
+        # Singletons and pairs: one build per graph, shared by all its robot values.
+        # (No later round asks for a set of size < 3, so they are not stored.)
         m = eye[a_idx] | eye[b_idx]
-        Rpair[i, a_idx, b_idx] = evaluate_clusters(criterion, D, beta, psi, np.full(P, gidx[i]),
-                                                   np.full(P, alpha[i]), m)
+        for g in np.unique(gidx):
+            its = np.flatnonzero(gidx == g)
+            c1, p1 = evaluate_parts(criterion, D, beta, psi, np.full(n1 - 1, g, np.int32), eye[1:])
+            c2, p2 = evaluate_parts(criterion, D, beta, psi, np.full(P, g, np.int32), m)
+            for i in its:
+                R[i, 1:] = _combine(c1, p1, alpha[i])
+                Rpair[i, a_idx, b_idx] = _combine(c2, p2, alpha[i])
+    else:
+        R[inst, nodes] = evaluate_clusters(criterion, D, beta, psi, gidx[inst], alpha[inst], eye[nodes])
+        for i in range(I):  # one instance's pairs at a time keeps the mask array small
+            m = eye[a_idx] | eye[b_idx]
+            Rpair[i, a_idx, b_idx] = evaluate_clusters(criterion, D, beta, psi, np.full(P, gidx[i]),
+                                                       np.full(P, alpha[i]), m)
     upper = np.triu(np.ones((n1, n1), bool), 1)
     active = np.ones(I, bool)
     while True:
@@ -170,7 +288,10 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None):
         rows, ks = np.nonzero(other)
         inst_j, a_j = act[rows], a[rows]
         masks = member[inst_j, a_j] | member[inst_j, ks]
-        r = evaluate_clusters(criterion, D, beta, psi, gidx[inst_j], alpha[inst_j], masks)
+        if tc is not None:
+            r = tc.rewards(gidx[inst_j], masks, alpha[inst_j])
+        else:
+            r = evaluate_clusters(criterion, D, beta, psi, gidx[inst_j], alpha[inst_j], masks)
         lo, hi = np.minimum(a_j, ks), np.maximum(a_j, ks)
         Rpair[inst_j, lo, hi] = r
 
