@@ -13,13 +13,16 @@ import pytest
 from jaxdc import checkpoint
 from jaxdc.agents.a2c import A2CConfig, huber, lr_schedule, make_policy, make_train, nstep_returns
 from jaxdc.core.rollout import run_episodes
+from jaxdc.core.paths import safest_paths
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.evaluate import summarize
+from jaxdc.dcp.navigators import batched_heuristics
 from jaxdc.nets import make_net
 
 # A small, low-risk DCP that ENN learns in a few thousand steps.
 ENV = DCP(grid_size=4, total_reward=6)
 PARAMS = ENV.make_params("low", (4.0, 8.0), max_steps=100)
+HEUR = batched_heuristics(PARAMS, safest_paths(PARAMS.risk))
 
 
 def test_nstep_returns_by_hand():
@@ -70,7 +73,7 @@ def _leaves_equal(a, b):
 @pytest.fixture(scope="module")
 def enn_trainer():
     """One ENN trainer (one compilation) shared by the resume and the learning test."""
-    return make_train(A2CConfig(total_steps=8192, num_envs=16, t_max=8, lr=1e-3), ENV, PARAMS, make_net("enn"))
+    return make_train(A2CConfig(total_steps=8192, num_envs=16, t_max=8, lr=1e-3), ENV, PARAMS, make_net("enn"), HEUR)
 
 
 def test_resume_through_a_checkpoint_is_exact(enn_trainer):
@@ -107,7 +110,7 @@ def test_tiny_enn_run_beats_the_random_policy(enn_trainer):
     """ENN at initialisation is close to uniform; 8k steps lift the mean reward by > 1 (SE ~0.07)."""
     net, trainer = make_net("enn"), enn_trainer
     cfg = trainer.config
-    evaluate = jax.jit(lambda params, key: run_episodes(ENV, PARAMS, make_policy(net, params, PARAMS), key, 500))
+    evaluate = jax.jit(lambda params, key: run_episodes(ENV, PARAMS, make_policy(net, params, HEUR), key, 500))
     state = trainer.init(jax.random.PRNGKey(0))
     before = summarize(evaluate(state.params, jax.random.PRNGKey(7)))["reward"]["mean"]
     for _ in range(cfg.num_updates):
@@ -116,7 +119,7 @@ def test_tiny_enn_run_beats_the_random_policy(enn_trainer):
     after = summarize(evaluate(state.params, jax.random.PRNGKey(7)))["reward"]["mean"]
     assert after > before + 1.0, (before, after)
     # greedy evaluation is available and deterministic in the policy
-    greedy = make_policy(net, state.params, PARAMS, greedy=True)
+    greedy = make_policy(net, state.params, HEUR, greedy=True)
     obs, s = ENV.reset(jax.random.PRNGKey(1), PARAMS)
     assert int(greedy(jax.random.PRNGKey(2), obs, s)) == int(greedy(jax.random.PRNGKey(3), obs, s))
 
@@ -124,3 +127,8 @@ def test_tiny_enn_run_beats_the_random_policy(enn_trainer):
 def test_make_train_rejects_a_non_config():
     with pytest.raises(TypeError, match="A2CConfig"):
         make_train(dataclasses.asdict(A2CConfig()), ENV, PARAMS, make_net("linear"))
+
+
+def test_a_heuristic_net_needs_heuristics():
+    with pytest.raises(ValueError, match="heuristics"):
+        make_train(A2CConfig(), ENV, PARAMS, make_net("enn"))

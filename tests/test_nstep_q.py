@@ -9,12 +9,15 @@ import pytest
 
 from jaxdc.agents.nstep_q import QConfig, epsilon_greedy, make_q_policy, make_train
 from jaxdc.core.rollout import run_episodes
+from jaxdc.core.paths import safest_paths
 from jaxdc.dcp.env import DCP
+from jaxdc.dcp.navigators import batched_heuristics
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.nets import EQN
 
 ENV = DCP(grid_size=4, total_reward=6)
 PARAMS = ENV.make_params("low", (4.0, 8.0), max_steps=100)
+HEUR = batched_heuristics(PARAMS, safest_paths(PARAMS.risk))
 
 
 def test_epsilon_greedy():
@@ -43,8 +46,8 @@ def test_epsilon_schedule_and_target_period():
 def test_target_network_copies_every_period_and_eqn_learns():
     net = EQN()
     cfg = QConfig(total_steps=8192, num_envs=16, t_max=8, lr=1e-3, target_every=4 * 128)
-    trainer = make_train(cfg, ENV, PARAMS, net)
-    evaluate = jax.jit(lambda p, k: run_episodes(ENV, PARAMS, make_q_policy(net, p, PARAMS), k, 500))
+    trainer = make_train(cfg, ENV, PARAMS, net, HEUR)
+    evaluate = jax.jit(lambda p, k: run_episodes(ENV, PARAMS, make_q_policy(net, p, HEUR), k, 500))
     state = trainer.init(jax.random.PRNGKey(0))
     before = summarize(evaluate(state.params, jax.random.PRNGKey(7)))["reward"]["mean"]
     leaf = lambda tree: np.asarray(jax.tree_util.tree_leaves(tree)[0])  # noqa: E731

@@ -38,6 +38,7 @@ from jaxdc.core import grid
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import env as dcp_env
+from jaxdc.dcp import navigators
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
 from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
@@ -160,28 +161,28 @@ class Run:
             self.config = A2CConfig(**common, entropy_coef=args.entropy, value_coef=args.value_coef)
         self.env = dcp_env.DCP(grid_size=args.grid_size, total_reward=args.total_reward)
         self.env_params = self.env.make_params(args.risk, tuple(args.energy), args.max_steps)
-        self.trainer = algo.make_train(self.config, self.env, self.env_params, self.net)
+        table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
+        self.heuristics = navigators.batched_heuristics(self.env_params, table)
+        self.trainer = algo.make_train(self.config, self.env, self.env_params, self.net, self.heuristics)
         self.metadata = {
             "format": 1, "net": args.net, "grid_size": args.grid_size, "total_reward": args.total_reward,
             "risk": args.risk, "energy": list(args.energy), "max_steps": args.max_steps, "seed": args.seed,
             "algorithm": dataclasses.asdict(self.config),
         }
-        table = jax.jit(safest_paths)(self.env_params.risk)
-
         @jax.jit
         def evaluate(params, key):
-            policy = self.policy(params, table)
+            policy = self.policy(params)
             return run_episodes(self.env, self.env_params, policy, key, args.eval_episodes)
 
         self._evaluate = evaluate
 
-    def policy(self, params, table=None):
+    def policy(self, params):
         """The evaluation policy: sampled from pi (argmax if --greedy-eval); EQN: epsilon-greedy."""
         a = self.args
         if a.net == "eqn":
-            return nstep_q.make_q_policy(self.net, params, self.env_params, table,
+            return nstep_q.make_q_policy(self.net, params, self.heuristics,
                                          epsilon=0.0 if a.greedy_eval else a.eval_epsilon)
-        return a2c.make_policy(self.net, params, self.env_params, table, greedy=a.greedy_eval)
+        return a2c.make_policy(self.net, params, self.heuristics, greedy=a.greedy_eval)
 
     # -- state ------------------------------------------------------------------------------
     def initial_state(self):

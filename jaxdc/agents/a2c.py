@@ -39,8 +39,6 @@ import optax
 from flax import struct
 
 from jaxdc.core.env import step_batch
-from jaxdc.core.paths import safest_paths
-from jaxdc.dcp.navigators import HEURISTICS, enn_heuristics
 
 
 @dataclasses.dataclass(frozen=True)
@@ -198,28 +196,33 @@ def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, conf
 
 
 # -- policies -----------------------------------------------------------------------------
-def heuristics_fn(net, env_params, table):
-    """``env_states [B] -> [B, 10, 9]``: the ENN heuristics, or zeros for a network that ignores them."""
-    n_h = len(HEURISTICS)
+def heuristics_fn(net, heuristics: Callable | None):
+    """``env_states [B] -> [B, H, A]``: the given heuristics for a network that uses them (ENN, EQN),
+    zeros ``[B, 1, A]`` for one that ignores them (linear, CNN).
 
-    def heuristics(env_states):
-        if getattr(net, "uses_heuristics", True):
-            return jax.vmap(enn_heuristics, in_axes=(0, None, None))(env_states, env_params, table)
-        b = env_states.pos.shape[0]
-        return jnp.zeros((b, n_h, net.num_actions), jnp.float32)
+    The heuristics come from the caller (for the DCP,
+    :func:`jaxdc.dcp.navigators.batched_heuristics`): an algorithm knows no heuristics.
+    """
+    if getattr(net, "uses_heuristics", True):
+        if heuristics is None:
+            raise ValueError(f"{type(net).__name__} uses heuristics: pass heuristics=states -> [B, H, A] "
+                             "(for the DCP: jaxdc.dcp.navigators.batched_heuristics(params, table))")
+        return heuristics
 
-    return heuristics
+    def zeros(env_states):
+        b = jax.tree_util.tree_leaves(env_states)[0].shape[0]
+        return jnp.zeros((b, 1, net.num_actions), jnp.float32)
+
+    return zeros
 
 
-def make_policy(net, params, env_params, table=None, greedy: bool = False):
+def make_policy(net, params, heuristics: Callable | None = None, greedy: bool = False):
     """``policy(key, obs, state) -> action`` for one environment, as :func:`jaxdc.core.rollout.run_episodes` wants.
 
     Samples from ``pi`` (section 4.5: "the output of ENN is used as a
     stochastic policy"), or takes its argmax if ``greedy``.
     """
-    if table is None:
-        table = safest_paths(env_params.risk)
-    heuristics = heuristics_fn(net, env_params, table)
+    heuristics = heuristics_fn(net, heuristics)
 
     def policy(key, obs, state):
         batched = jax.tree_util.tree_map(lambda x: x[None], state)
@@ -242,12 +245,14 @@ class Trainer(NamedTuple):
     config: A2CConfig
 
 
-def make_train(config: A2CConfig, env, env_params, net) -> Trainer:
-    """Build the A2C trainer of ``net`` on ``env`` with ``env_params`` (validated outside jit)."""
+def make_train(config: A2CConfig, env, env_params, net, heuristics: Callable | None = None) -> Trainer:
+    """Build the A2C trainer of ``net`` on ``env`` with ``env_params`` (validated outside jit).
+
+    ``heuristics`` (``env_states [B] -> [B, H, A]``) feeds a network that uses them (ENN).
+    """
     if not isinstance(config, A2CConfig):
         raise TypeError(f"config must be an A2CConfig, got {type(config).__name__}")
-    table = jax.jit(safest_paths)(env_params.risk)  # once per run: the risk map is fixed
-    heuristics = heuristics_fn(net, env_params, table)
+    heuristics = heuristics_fn(net, heuristics)
     tx = make_optimizer(config)
     value_fn = functools.partial(net.apply, method="value")
 

@@ -31,7 +31,6 @@ from flax import struct
 
 from jaxdc.agents.a2c import A2CConfig, Trainer, heuristics_fn, huber, make_optimizer, nstep_returns
 from jaxdc.core.env import tree_select
-from jaxdc.core.paths import safest_paths
 
 #: Epsilon of the evaluation policy (section 4.5.5).
 EVAL_EPSILON = 0.05
@@ -105,11 +104,9 @@ def q_loss(params, apply_fn: Callable, obs, heuristics, actions, returns):
     return loss, {"loss": loss, "q_mean": jnp.mean(q_a)}
 
 
-def make_q_policy(net, params, env_params, table=None, epsilon: float = EVAL_EPSILON):
+def make_q_policy(net, params, heuristics: Callable | None = None, epsilon: float = EVAL_EPSILON):
     """``policy(key, obs, state)`` for :func:`jaxdc.core.rollout.run_episodes`: epsilon-greedy on EQN's Q."""
-    if table is None:
-        table = safest_paths(env_params.risk)
-    heuristics = heuristics_fn(net, env_params, table)
+    heuristics = heuristics_fn(net, heuristics)
 
     def policy(key, obs, state):
         batched = jax.tree_util.tree_map(lambda x: x[None], state)
@@ -118,12 +115,11 @@ def make_q_policy(net, params, env_params, table=None, epsilon: float = EVAL_EPS
     return policy
 
 
-def make_train(config: QConfig, env, env_params, net) -> Trainer:
+def make_train(config: QConfig, env, env_params, net, heuristics: Callable | None = None) -> Trainer:
     """Build the n-step Q trainer of ``net`` (an :class:`jaxdc.nets.EQN`); same interface as A2C's."""
     if not isinstance(config, QConfig):
         raise TypeError(f"config must be a QConfig, got {type(config).__name__}")
-    table = jax.jit(safest_paths)(env_params.risk)
-    heuristics = heuristics_fn(net, env_params, table)
+    heuristics = heuristics_fn(net, heuristics)
     tx = make_optimizer(config)
     b = config.num_envs
 

@@ -93,6 +93,14 @@ def policy_action(name: str, state, table: PathTable, cfg: PlannerConfig = Plann
     raise ValueError(f"policy must be one of {POLICIES}, got {name!r}")
 
 
+def batched_heuristics(params, table: PathTable, cfg: PlannerConfig = PlannerConfig()):
+    """``env_states [B] -> [B, 10, 9]``: :func:`enn_heuristics` over a batch sharing ``params`` and ``table``.
+
+    This is what a trainer of ENN or EQN is given (``jaxdc.agents`` knows no heuristics itself).
+    """
+    return lambda states: jax.vmap(enn_heuristics, in_axes=(0, None, None, None))(states, params, table, cfg)
+
+
 def enn_heuristics(state, params, table: PathTable, cfg: PlannerConfig = PlannerConfig()):
     """The ten action vectors of ENN (section 4.4.3), shape ``[10, 9]``, rows in :data:`HEURISTICS` order.
 
