@@ -36,6 +36,18 @@ class Environment(Generic[S, P]):
     def default_params(self) -> P:
         raise NotImplementedError
 
+    def _config(self) -> tuple:
+        """The static configuration (constructor arguments) as a hashable tuple."""
+        raise NotImplementedError
+
+    # An environment is a static argument of jitted functions: equal configurations
+    # compare and hash equal, so they share compiled code.
+    def __eq__(self, other) -> bool:
+        return type(other) is type(self) and other._config() == self._config()
+
+    def __hash__(self) -> int:
+        return hash((type(self).__name__,) + self._config())
+
     @property
     def num_actions(self) -> int:
         raise NotImplementedError

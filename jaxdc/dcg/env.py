@@ -156,12 +156,6 @@ class DCG(Environment[EnvState, EnvParams]):
                 self.history_fill, self.items_on_base, self.opponent_start, self.patrol_target,
                 self.reward_when_caught, self.energy_metric)
 
-    def __eq__(self, other) -> bool:  # equal configs share jit caches (the env is a static arg)
-        return type(other) is type(self) and other._config() == self._config()
-
-    def __hash__(self) -> int:
-        return hash((type(self).__name__,) + self._config())
-
     def __repr__(self) -> str:
         return (
             f"DCG(grid_size={self.grid_size}, total_reward={self.total_reward}, strategies={self.strategies}, "

@@ -131,12 +131,6 @@ class DCP(Environment[EnvState, EnvParams]):
         return (self.grid_size, self.total_reward, self.start, self.items_on_base,
                 self.energy_metric, self.idle_terminates, self.item_order)
 
-    def __eq__(self, other) -> bool:  # equal configs share jit caches (the env is a static arg)
-        return type(other) is type(self) and other._config() == self._config()
-
-    def __hash__(self) -> int:
-        return hash((type(self).__name__,) + self._config())
-
     def __repr__(self) -> str:
         return (
             f"DCP(grid_size={self.grid_size}, total_reward={self.total_reward}, start={self.start!r}, "

@@ -157,7 +157,27 @@ def _check_action(action, num_actions: int) -> np.int32:
     return np.int32(a)
 
 
-class JaxToGymnasium(gymnasium.Env):
+class _KeyedReset:
+    """The key scheme shared by both adapters: ``reset(seed=s)`` restarts the key stream at
+    ``PRNGKey(s)``; every reset and step then splits off a subkey. A reset without a seed
+    continues the stream (the very first one draws its seed from gymnasium's ``np_random``)."""
+
+    @property
+    def state(self):
+        """The current functional state, batched for the vector env (``None`` before the first reset)."""
+        return self._state
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            self._key = jax.random.PRNGKey(seed)
+        elif self._key is None:
+            self._key = jax.random.PRNGKey(int(self.np_random.integers(0, 2**31 - 1)))
+        self._key, obs, self._state = self._reset_fn(self._key, self.params)
+        return np.asarray(obs, dtype=np.float32), {}
+
+
+class JaxToGymnasium(_KeyedReset, gymnasium.Env):
     """A jaxdc :class:`~jaxdc.core.env.Environment` as a :class:`gymnasium.Env`.
 
     Args:
@@ -186,19 +206,6 @@ class JaxToGymnasium(gymnasium.Env):
         self._reset_fn = partial(_reset_one, env)
         self._step_fn = partial(_step_one, env)
 
-    @property
-    def state(self):
-        """The current functional state (``None`` before the first reset)."""
-        return self._state
-
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
-        if seed is not None:
-            self._key = jax.random.PRNGKey(seed)
-        elif self._key is None:
-            self._key = jax.random.PRNGKey(int(self.np_random.integers(0, 2**31 - 1)))
-        self._key, obs, self._state = self._reset_fn(self._key, self.params)
-        return np.asarray(obs, dtype=np.float32), {}
 
     def step(self, action):
         if self._state is None:
@@ -234,7 +241,7 @@ class JaxToGymnasium(gymnasium.Env):
         return _renderer(self.env)(jax.device_get(self._state), jax.device_get(self.params))
 
 
-class JaxVectorEnv(gymnasium.vector.VectorEnv):
+class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
     """``num_envs`` copies of a jaxdc environment behind one jitted ``vmap`` step.
 
     Same-step auto-reset (jaxdc's ``Environment.step``): see the module docs.
@@ -265,19 +272,6 @@ class JaxVectorEnv(gymnasium.vector.VectorEnv):
         self._reset_fn = partial(_reset_batch, env, self.num_envs)
         self._step_fn = partial(_step_batch, env, self.num_envs)
 
-    @property
-    def state(self):
-        """The batched functional state (``None`` before the first reset)."""
-        return self._state
-
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
-        if seed is not None:
-            self._key = jax.random.PRNGKey(seed)
-        elif self._key is None:
-            self._key = jax.random.PRNGKey(int(self.np_random.integers(0, 2**31 - 1)))
-        self._key, obs, self._state = self._reset_fn(self._key, self.params)
-        return np.asarray(obs, dtype=np.float32), {}
 
     def step(self, actions):
         if self._state is None:
