@@ -51,6 +51,25 @@ def risk_with(n, cells=None, fill=0.0):
     return risk
 
 
+def make_game(env, pos, opp, strategy, items=None, energy=15.0, home=None, target=None, phase=0):
+    """A hand-made DCG state (collector at ``pos``, opponent at ``opp``); shared by the DCG tests."""
+    from jaxdc.dcg import EnvState, OpponentState
+
+    n = env.grid_size
+    arr = np.zeros((n, n), np.float32)
+    for (r, c), v in (items or {}).items():
+        arr[r, c] = v
+    home = opp if home is None else home
+    return EnvState(
+        pos=jnp.asarray(pos, jnp.int32), energy=jnp.float32(energy), items=jnp.asarray(arr),
+        opponent=OpponentState(pos=jnp.asarray(opp, jnp.int32), home=jnp.asarray(home, jnp.int32),
+                               target=jnp.asarray(home if target is None else target, jnp.int32),
+                               phase=jnp.int32(phase)),
+        strategy=jnp.int32(env.strategies.index(strategy)), history=jnp.zeros((n, n, env.history), jnp.float32),
+        time=jnp.int32(0), outcome=jnp.int32(0), ep_reward=jnp.float32(0), ep_energy=jnp.int32(0),
+    )
+
+
 @pytest.fixture
 def state_builder():
     return make_state

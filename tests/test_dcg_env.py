@@ -7,7 +7,8 @@ import pytest
 from scipy import stats
 
 from jaxdc.core import grid
-from jaxdc.dcg import DCG, EnvState, OpponentState
+from jaxdc.dcg import DCG
+from conftest import make_game
 from jaxdc.dcg.env import CAUGHT, CLEARED, ENERGY, OUTCOMES, RUNNING, TRUNCATED
 
 N = 5
@@ -18,20 +19,8 @@ STAY, UP, DOWN, LEFT, RIGHT, UP_LEFT = 0, 1, 2, 3, 4, 5
 
 
 def game(pos, opp, strategy="patrol", items=None, energy=15.0, home=None, target=None, env=ENV):
-    """A hand-made state; ``patrol`` with ``home == target`` is an opponent that never moves."""
-    arr = np.zeros((N, N), np.float32)
-    for (r, c), v in ({(4, 0): 1.0} if items is None else items).items():
-        arr[r, c] = v
-    home = opp if home is None else home
-    return EnvState(
-        pos=jnp.asarray(pos, jnp.int32), energy=jnp.float32(energy), items=jnp.asarray(arr),
-        opponent=OpponentState(pos=jnp.asarray(opp, jnp.int32), home=jnp.asarray(home, jnp.int32),
-                               target=jnp.asarray(home if target is None else target, jnp.int32),
-                               phase=jnp.int32(0)),
-        strategy=jnp.int32(env.strategies.index(strategy)),
-        history=jnp.zeros((N, N, env.history), jnp.float32), time=jnp.int32(0), outcome=jnp.int32(RUNNING),
-        ep_reward=jnp.float32(0), ep_energy=jnp.int32(0),
-    )
+    """A hand-made state (one unit item at (4, 0) by default); ``patrol`` with ``home == target`` never moves."""
+    return make_game(env, pos, opp, strategy, {(4, 0): 1.0} if items is None else items, energy, home, target)
 
 
 def step(s, a, env=ENV, params=P, seed=0):

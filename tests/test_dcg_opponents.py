@@ -11,26 +11,12 @@ from jaxdc.core import grid
 from jaxdc.dcg import DCG, EnvState, OpponentState, register_strategy, registered_strategies
 from jaxdc.dcg import opponents as opp_lib
 
+from conftest import make_game as game
+
 N = 5
 ALL = ("patrol", "restricted", "with_fog", "double_blind")
 ENV = DCG(grid_size=N, strategies=ALL, history=2)
 CELLS = [(r, c) for r in range(N) for c in range(N)]
-
-
-def game(env, pos, opp, strategy, items=None, energy=15.0, home=None, target=None, phase=0):
-    n = env.grid_size
-    arr = np.zeros((n, n), np.float32)
-    for (r, c), v in (items or {}).items():
-        arr[r, c] = v
-    home = opp if home is None else home
-    return EnvState(
-        pos=jnp.asarray(pos, jnp.int32), energy=jnp.float32(energy), items=jnp.asarray(arr),
-        opponent=OpponentState(pos=jnp.asarray(opp, jnp.int32), home=jnp.asarray(home, jnp.int32),
-                               target=jnp.asarray(home if target is None else target, jnp.int32),
-                               phase=jnp.int32(phase)),
-        strategy=jnp.int32(env.strategies.index(strategy)), history=jnp.zeros((n, n, env.history), jnp.float32),
-        time=jnp.int32(0), outcome=jnp.int32(0), ep_reward=jnp.float32(0), ep_energy=jnp.int32(0),
-    )
 
 
 def params(tie="straight", **kw):

@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from jaxdc.agents.a2c import A2CConfig, Trainer, heuristics_fn, huber, make_optimizer, nstep_returns
+from jaxdc.agents.a2c import A2CConfig, Trainer, Transition, heuristics_fn, huber, make_optimizer, nstep_returns
 from jaxdc.core.env import tree_select
 
 #: Epsilon of the evaluation policy (section 4.5.5).
@@ -77,15 +77,6 @@ class QTrainState:
     update: jax.Array
 
 
-class QTransition(NamedTuple):
-    obs: jax.Array
-    heuristics: jax.Array
-    action: jax.Array
-    reward: jax.Array
-    terminated: jax.Array
-    truncated: jax.Array
-    final_value: jax.Array
-    episode_reward: jax.Array
 
 
 def epsilon_greedy(key, q, epsilon):
@@ -147,7 +138,7 @@ def make_train(config: QConfig, env, env_params, net, heuristics: Callable | Non
             lambda: jnp.zeros_like(reward))
         done = term | trunc
         obs_new, state_new = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(k_reset, b), env_params)
-        t = QTransition(obs, h, action, reward, term, trunc, final_value,
+        t = Transition(obs, h, action, reward, term, trunc, final_value,
                         jnp.where(done, info["episode_reward"], 0.0))
         return (tree_select(done, state_new, state_end), tree_select(done, obs_new, obs_end), key), t
 

@@ -25,6 +25,8 @@ from typing import Any, Generic, TypeVar
 import jax
 import jax.numpy as jnp
 
+from jaxdc.core import grid
+
 S = TypeVar("S")
 P = TypeVar("P")
 
@@ -32,9 +34,13 @@ P = TypeVar("P")
 class Environment(Generic[S, P]):
     """Base of the jaxdc environments: pure, jittable and vmappable."""
 
+    def make_params(self, **kwargs) -> P:
+        """Validated parameters (written by subclasses)."""
+        raise NotImplementedError
+
     @property
     def default_params(self) -> P:
-        raise NotImplementedError
+        return self.make_params()
 
     def _config(self) -> tuple:
         """The static configuration (constructor arguments) as a hashable tuple."""
@@ -50,7 +56,8 @@ class Environment(Generic[S, P]):
 
     @property
     def num_actions(self) -> int:
-        raise NotImplementedError
+        """The 9 grid actions of :data:`jaxdc.core.grid.ACTIONS` (both grid problems use them)."""
+        return grid.NUM_ACTIONS
 
     def observation_shape(self, params: P) -> tuple[int, ...]:
         raise NotImplementedError

@@ -190,14 +190,6 @@ class DCG(Environment[EnvState, EnvParams]):
             chase_tie=jnp.int32(CHASE_TIES.index(chase_tie)),
         )
 
-    @property
-    def default_params(self) -> EnvParams:
-        return self.make_params()
-
-    @property
-    def num_actions(self) -> int:
-        return grid.NUM_ACTIONS
-
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, 2 + (self.history if self.obs_history else 0))
 

@@ -159,14 +159,6 @@ class DCP(Environment[EnvState, EnvParams]):
             max_steps=jnp.int32(max_steps),
         )
 
-    @property
-    def default_params(self) -> EnvParams:
-        return self.make_params()
-
-    @property
-    def num_actions(self) -> int:
-        return grid.NUM_ACTIONS
-
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, 2)
 

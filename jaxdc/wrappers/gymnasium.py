@@ -176,6 +176,15 @@ class _KeyedReset:
         self._key, obs, self._state = self._reset_fn(self._key, self.params)
         return np.asarray(obs, dtype=np.float32), {}
 
+    def _host_state(self, what: str):
+        """``(state, params)`` on the host for ``render``; None (with a warning) without a render mode."""
+        if self.render_mode is None:
+            gymnasium.logger.warn(f"{what}() called without a render_mode; pass render_mode='ansi'")
+            return None
+        if self._state is None:
+            raise RuntimeError(f"call reset() before {what}()")
+        return jax.device_get((self._state, self.params))
+
 
 class JaxToGymnasium(_KeyedReset, gymnasium.Env):
     """A jaxdc :class:`~jaxdc.core.env.Environment` as a :class:`gymnasium.Env`.
@@ -233,12 +242,8 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
         return out
 
     def render(self):
-        if self.render_mode is None:
-            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='ansi'")
-            return None
-        if self._state is None:
-            raise RuntimeError("call reset() before render()")
-        return _renderer(self.env)(jax.device_get(self._state), jax.device_get(self.params))
+        host = self._host_state("render")
+        return None if host is None else _renderer(self.env)(*host)
 
 
 class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
@@ -316,12 +321,10 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
         return out
 
     def render(self):
-        if self.render_mode is None:
-            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='ansi'")
+        host = self._host_state("render")
+        if host is None:
             return None
-        if self._state is None:
-            raise RuntimeError("call reset() before render()")
-        state, params = jax.device_get((self._state, self.params))
+        state, params = host
         render = _renderer(self.env)
         return tuple(
             render(jax.tree_util.tree_map(lambda x, i=i: x[i], state), params) for i in range(self.num_envs)
