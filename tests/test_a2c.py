@@ -132,3 +132,43 @@ def test_make_train_rejects_a_non_config():
 def test_a_heuristic_net_needs_heuristics():
     with pytest.raises(ValueError, match="heuristics"):
         make_train(A2CConfig(), ENV, PARAMS, make_net("enn"))
+
+
+def test_aux_head_cross_entropy_and_wiring():
+    """A network with an auxiliary head (EMNN, OMN + CoNN) adds ``aux_coef`` * Eq. 5.1 to the loss."""
+    import flax.linen as nn
+
+    from jaxdc.agents.a2c import a2c_loss, aux_cross_entropy
+
+    logits = jnp.log(jnp.array([[0.5, 0.25, 0.25], [0.1, 0.1, 0.8]]))
+    ce, acc = aux_cross_entropy(logits, jnp.array([0, 0]))
+    np.testing.assert_allclose(float(ce), -(np.log(0.5) + np.log(0.1)) / 2, rtol=1e-6)
+    assert float(acc) == 0.5
+
+    class WithAux(nn.Module):
+        has_aux = True
+        uses_heuristics = False
+        num_actions = 9
+
+        @nn.compact
+        def __call__(self, obs, heuristics):
+            x = obs.reshape(obs.shape[0], -1)
+            return nn.Dense(9)(x), nn.Dense(1)(x)[:, 0], nn.Dense(9, name="aux")(x)
+
+        def value(self, obs):
+            return self(obs, None)[1]
+
+    net = WithAux()
+    cfg = A2CConfig(total_steps=16 * 32, aux_coef=0.5)
+    with pytest.raises(ValueError, match="aux_target"):
+        make_train(cfg, ENV, PARAMS, net)
+    obs = jnp.zeros((4, 4, 4, 2))
+    params = net.init(jax.random.PRNGKey(0), obs, None)
+    args = (params, net.apply, obs, None, jnp.zeros(4, jnp.int32), jnp.zeros(4))
+    (with_aux, m), (without, _) = (a2c_loss(*args, cfg, jnp.zeros(4, jnp.int32)),
+                                   a2c_loss(*args, dataclasses.replace(cfg, aux_coef=0.0), jnp.zeros(4, jnp.int32)))
+    np.testing.assert_allclose(float(with_aux - without), 0.5 * float(m["aux_loss"]), rtol=1e-5)
+    # the trainer feeds the labels from the step's info
+    trainer = make_train(cfg, ENV, PARAMS, net, aux_target=lambda info: jnp.zeros_like(info["outcome"]))
+    _, metrics = trainer.update(trainer.init(jax.random.PRNGKey(1)))
+    assert "aux_accuracy" in metrics and np.isfinite(float(metrics["aux_loss"]))

@@ -66,6 +66,11 @@ class A2CConfig:
         environment.
       unroll: ``unroll`` of the rollout ``lax.scan`` (``t_max`` unrolls it fully;
         on XLA:CPU a convolution inside a loop body can be much slower).
+      aux_coef: weight of the auxiliary cross-entropy of a network with an
+        auxiliary head (one whose ``apply`` returns ``(logits, value,
+        aux_logits)``): section 5.4.4's ``alpha`` of Eq. 5.1 for EMNN; 1.0 for
+        OMN + CoNN, whose OMN is trained by that cross-entropy alone (Algorithm
+        12). Ignored by a network without such a head.
     """
 
     total_steps: int = 1_000_000
@@ -80,6 +85,7 @@ class A2CConfig:
     max_grad_norm: float | None = None
     reset_slots: int | None = None
     unroll: int = 1
+    aux_coef: float = 1.0
 
     def __post_init__(self):
         for name in ("total_steps", "num_envs", "t_max", "unroll"):
@@ -90,7 +96,7 @@ class A2CConfig:
             raise ValueError(f"lr (learning rate) must be > 0, got {self.lr!r}")
         if not 0 <= self.gamma <= 1:
             raise ValueError(f"gamma must be in [0, 1], got {self.gamma!r}")
-        for name in ("value_coef", "entropy_coef"):
+        for name in ("value_coef", "entropy_coef", "aux_coef"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
         if self.max_grad_norm is not None and not self.max_grad_norm > 0:
@@ -134,6 +140,7 @@ class Transition(NamedTuple):
     truncated: jax.Array
     final_value: jax.Array  # V(last obs of the finished episode) where truncated, else 0
     episode_reward: jax.Array  # the finished episode's reward where done, else 0
+    aux_target: jax.Array  # int32 label of the auxiliary head (e.g. the opponent's action o_t), else 0
 
 
 # -- the pieces of the loss ---------------------------------------------------------------
@@ -177,14 +184,24 @@ def make_optimizer(config: A2CConfig):
     return optax.chain(optax.clip_by_global_norm(config.max_grad_norm), adam)
 
 
-def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, config: A2CConfig):
+def aux_cross_entropy(aux_logits, targets):
+    """Eq. 5.1: mean cross-entropy ``-log p(o_t)`` of the auxiliary head, and its accuracy (argmax = target)."""
+    logp = jax.nn.log_softmax(aux_logits)
+    ce = -jnp.mean(jnp.take_along_axis(logp, targets[:, None], axis=-1)[:, 0])
+    return ce, jnp.mean(jnp.argmax(aux_logits, axis=-1) == targets)
+
+
+def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, config: A2CConfig,
+             aux_targets=None):
     """Mean over the batch of ``-log pi(a|s) A + value_coef * Huber(R - V) - entropy_coef * H(pi)``.
 
     ``A = R - V(s)`` is held constant (``stop_gradient``) in the policy term.
     The thesis accumulates gradients over the batch (a sum); Adam is invariant
-    to that constant factor, so the mean is used.
+    to that constant factor, so the mean is used. A network with an auxiliary
+    head (``apply`` returns a third output) adds ``aux_coef`` times
+    :func:`aux_cross_entropy` on ``aux_targets`` (section 5.4.4, Algorithm 12).
     """
-    logits, values = apply_fn(params, obs, heuristics)
+    logits, values, *aux = apply_fn(params, obs, heuristics)
     logp = jax.nn.log_softmax(logits)
     logp_a = jnp.take_along_axis(logp, actions[:, None], axis=-1)[:, 0]
     advantage = returns - values
@@ -192,7 +209,12 @@ def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, conf
     value_loss = jnp.mean(huber(advantage))
     entropy = -jnp.mean(jnp.sum(jnp.exp(logp) * logp, axis=-1))
     loss = policy_loss + config.value_coef * value_loss - config.entropy_coef * entropy
-    return loss, {"loss": loss, "policy_loss": policy_loss, "value_loss": value_loss, "entropy": entropy}
+    metrics = {"policy_loss": policy_loss, "value_loss": value_loss, "entropy": entropy}
+    if aux:
+        aux_loss, aux_accuracy = aux_cross_entropy(aux[0], aux_targets)
+        loss = loss + config.aux_coef * aux_loss
+        metrics.update(aux_loss=aux_loss, aux_accuracy=aux_accuracy)
+    return loss, dict(metrics, loss=loss)
 
 
 # -- policies -----------------------------------------------------------------------------
@@ -226,7 +248,7 @@ def make_policy(net, params, heuristics: Callable | None = None, greedy: bool = 
 
     def policy(key, obs, state):
         batched = jax.tree_util.tree_map(lambda x: x[None], state)
-        logits, _ = net.apply(params, obs[None], heuristics(batched))
+        logits = net.apply(params, obs[None], heuristics(batched))[0]
         if greedy:
             return jnp.argmax(logits[0]).astype(jnp.int32)
         return jax.random.categorical(key, logits[0]).astype(jnp.int32)
@@ -245,14 +267,21 @@ class Trainer(NamedTuple):
     config: A2CConfig
 
 
-def make_train(config: A2CConfig, env, env_params, net, heuristics: Callable | None = None) -> Trainer:
+def make_train(config: A2CConfig, env, env_params, net, heuristics: Callable | None = None,
+               aux_target: Callable | None = None) -> Trainer:
     """Build the A2C trainer of ``net`` on ``env`` with ``env_params`` (validated outside jit).
 
     ``heuristics`` (``env_states [B] -> [B, H, A]``) feeds a network that uses them (ENN).
+    ``aux_target`` (``info -> int labels [B]`` of the step that follows the observation, e.g.
+    ``lambda info: info["opponent_action"]`` for the DCG) supervises a network's auxiliary head;
+    a network with such a head (``getattr(net, "has_aux", False)``) needs it.
     """
     if not isinstance(config, A2CConfig):
         raise TypeError(f"config must be an A2CConfig, got {type(config).__name__}")
     heuristics = heuristics_fn(net, heuristics)
+    if getattr(net, "has_aux", False) and aux_target is None:
+        raise ValueError(f"{type(net).__name__} has an auxiliary head: pass aux_target=info -> labels [B] "
+                         "(for the DCG: lambda info: info['opponent_action'])")
     tx = make_optimizer(config)
     value_fn = functools.partial(net.apply, method="value")
 
@@ -267,7 +296,7 @@ def make_train(config: A2CConfig, env, env_params, net, heuristics: Callable | N
         env_state, obs, key = carry
         key, k_act, k_env = jax.random.split(key, 3)
         h = heuristics(env_state)
-        logits, _ = net.apply(params, obs, h)
+        logits = net.apply(params, obs, h)[0]
         action = jax.random.categorical(k_act, logits).astype(jnp.int32)
         obs2, env_state2, reward, term, trunc, info = step_batch(
             env, k_env, env_state, action, env_params, config.reset_slots)
@@ -276,8 +305,9 @@ def make_train(config: A2CConfig, env, env_params, net, heuristics: Callable | N
             lambda: jnp.where(trunc, value_fn(params, info["final_observation"]), 0.0),
             lambda: jnp.zeros_like(reward))
         done = term | trunc
+        target = aux_target(info).astype(jnp.int32) if aux_target is not None else jnp.zeros_like(action)
         t = Transition(obs, h, action, reward, term, trunc, final_value,
-                       jnp.where(done, info["episode_reward"], 0.0))
+                       jnp.where(done, info["episode_reward"], 0.0), target)
         return (env_state2, obs2, key), t
 
     def update(ts: TrainState):
@@ -288,7 +318,8 @@ def make_train(config: A2CConfig, env, env_params, net, heuristics: Callable | N
                                 value_fn(ts.params, obs), config.gamma)
         flat = lambda x: x.reshape((-1,) + x.shape[2:])  # noqa: E731  [T, B, ...] -> [T*B, ...]
         grads, metrics = jax.grad(a2c_loss, has_aux=True)(
-            ts.params, net.apply, flat(traj.obs), flat(traj.heuristics), flat(traj.action), flat(returns), config)
+            ts.params, net.apply, flat(traj.obs), flat(traj.heuristics), flat(traj.action), flat(returns), config,
+            flat(traj.aux_target))
         updates, opt_state = tx.update(grads, ts.opt_state, ts.params)
         params = optax.apply_updates(ts.params, updates)
         done = traj.terminated | traj.truncated

@@ -139,7 +139,7 @@ def make_train(config: QConfig, env, env_params, net, heuristics: Callable | Non
         done = term | trunc
         obs_new, state_new = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(k_reset, b), env_params)
         t = Transition(obs, h, action, reward, term, trunc, final_value,
-                        jnp.where(done, info["episode_reward"], 0.0))
+                        jnp.where(done, info["episode_reward"], 0.0), jnp.zeros_like(action))
         return (tree_select(done, state_new, state_end), tree_select(done, obs_new, obs_end), key), t
 
     def update(ts: QTrainState):
