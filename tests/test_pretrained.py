@@ -1,0 +1,35 @@
+"""jaxdc.pretrained: a parameter file round-trips and refuses the wrong network or a damaged file."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxdc import pretrained
+from jaxdc.nets import make_net
+
+
+def test_roundtrip_and_checks(tmp_path):
+    net = make_net("linear")
+    params = net.init(jax.random.PRNGKey(0), jnp.zeros((1, 4, 4, 2)), jnp.zeros((1, 1, 9)))
+    path = pretrained.save(tmp_path / "lin", params, {"net": "linear", "problem": "dcp", "grid_size": 4})
+    got, meta = pretrained.load(path, net="linear", problem="dcp")
+    assert meta["grid_size"] == 4
+    for a, b in zip(jax.tree_util.tree_leaves(params), jax.tree_util.tree_leaves(got)):
+        np.testing.assert_array_equal(np.asarray(a), b)
+    x = jnp.ones((2, 4, 4, 2))
+    np.testing.assert_allclose(net.apply(got, x, None)[0], net.apply(params, x, None)[0])
+    with pytest.raises(ValueError, match="net='linear', expected 'enn'"):
+        pretrained.load(path, net="enn")
+    with open(path, "wb") as f:
+        f.write(b"\x00garbage")
+    with pytest.raises(ValueError, match="unreadable"):
+        pretrained.load(path)
+    with pytest.raises(ValueError, match="not found"):
+        pretrained.load(tmp_path / "missing")
+    with pytest.raises(ValueError, match="'problem'"):
+        pretrained.save(tmp_path / "x", params, {"net": "linear"})
+    with pytest.raises(ValueError, match="no shipped dcp parameters named 'nope'"):
+        pretrained.shipped("dcp", "nope")
