@@ -97,6 +97,44 @@ def test_reset_rules():
     assert len({tuple(o) for o in opp}) == N * N - 1  # every non-base cell occurs
 
 
+# -- the reward area (section 5.5.5, Figs. 5.10-5.12) -------------------------------------------
+
+
+@pytest.mark.parametrize("size", [1, 2, 3, 4, 5])
+def test_reward_area_places_one_unit_item_uniformly_in_the_bottom_right_square(size):
+    env = DCG(grid_size=N, reward_area=size, history=2)
+    assert env.total_reward == 1 and env.reward_area == size
+    keys = jax.random.split(jax.random.PRNGKey(size), 3000)
+    _, s = jax.jit(jax.vmap(env.reset_env, in_axes=(0, None)))(keys, env.default_params)
+    items = np.asarray(s.items).reshape(len(keys), -1)
+    assert np.all(items.sum(-1) == 1.0) and np.all(items.max(-1) == 1.0)
+    r, c = np.divmod(items.argmax(-1), N)
+    assert np.all(r >= N - size) and np.all(c >= N - size)
+    counts = np.bincount(items.argmax(-1), minlength=N * N)[env.reward_area_cells()]
+    assert counts.size == size * size and np.all(counts > 0)
+    if size > 1:
+        assert stats.chisquare(counts).pvalue > 1e-3, counts
+    # the opponent's start is drawn as without a reward area (never the base, may be the item's cell)
+    assert np.all(np.asarray(s.opponent.pos).sum(-1) > 0)
+
+
+def test_reward_area_cells_and_more_units():
+    assert DCG(grid_size=4, reward_area=2).reward_area_cells().tolist() == [10, 11, 14, 15]
+    assert DCG(grid_size=3, reward_area=3).reward_area_cells().tolist() == list(range(9))
+    assert DCG(grid_size=3, reward_area=3, items_on_base=False).reward_area_cells().tolist() == list(range(1, 9))
+    assert DCG(grid_size=3).reward_area_cells(1).tolist() == [8]
+    assert DCG().total_reward == 10 and DCG(reward_area=None).reward_area is None
+    assert DCG(reward_area=2) != DCG() and DCG(reward_area=2) == DCG(reward_area=2)
+    env = DCG(grid_size=4, reward_area=2, total_reward=7, history=2)
+    _, s = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(jax.random.PRNGKey(1), 200), env.default_params)
+    items = np.asarray(s.items)
+    assert np.all(items.sum(axis=(1, 2)) == 7) and np.all(items[:, :2, :] == 0) and np.all(items[:, :, :2] == 0)
+    with pytest.raises(ValueError, match="reward_area"):
+        DCG(grid_size=3).reward_area_cells(4)
+    with pytest.raises(TypeError, match="reward_area"):
+        DCG(reward_area=2.0)
+
+
 # -- observations: fog and history ------------------------------------------------------------
 
 
@@ -222,7 +260,9 @@ def test_strategy_draw_is_uniform():
     [({"grid_size": 1}, "grid_size"), ({"history": 0}, "history"), ({"total_reward": 0}, "total_reward"),
      ({"strategies": ()}, "strategies"), ({"strategies": ("nope",)}, "strategies"),
      ({"history_fill": "x"}, "history_fill"), ({"opponent_start": "x"}, "opponent_start"),
-     ({"patrol_target": "x"}, "patrol_target"), ({"energy_metric": "x"}, "energy_metric")],
+     ({"patrol_target": "x"}, "patrol_target"), ({"energy_metric": "x"}, "energy_metric"),
+     ({"reward_area": 0}, "reward_area"), ({"reward_area": 6}, "reward_area"),
+     ({"reward_area": 2, "total_reward": 0}, "total_reward")],
 )
 def test_bad_config(kwargs, name):
     with pytest.raises(ValueError, match=name):

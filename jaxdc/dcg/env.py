@@ -2,7 +2,9 @@
 
 A collector and an opponent on an ``N x N`` grid with the base at ``(0, 0)``.
 The collector starts in the base with full energy; the opponent on a random
-cell; ``total_reward`` unit rewards are dropped multinomially over the cells.
+cell; ``total_reward`` unit rewards are dropped multinomially over the cells
+(with ``reward_area=s``: over the bottom-right ``s x s`` square, one unit item
+by default, the experiment of section 5.5.5, Figs. 5.10-5.12).
 The opponent's strategy (:mod:`jaxdc.dcg.opponents`) is drawn uniformly per
 episode from the configured set.
 
@@ -100,7 +102,9 @@ class DCG(Environment[EnvState, EnvParams]):
 
     Args:
       grid_size: ``N`` (>= 2); 5 in the thesis.
-      total_reward: unit rewards dropped multinomially at reset (10 in 5.5.1).
+      total_reward: unit rewards dropped multinomially at reset; default 10
+        (5.5.1), or 1 with ``reward_area`` (section 5.5.5: "only 1 item with
+        1 reward").
       strategies: names of registered opponent strategies (see
         :func:`jaxdc.dcg.opponents.register_strategy`), one drawn uniformly
         per episode; ``info["strategy"]`` is the index into this tuple.
@@ -120,12 +124,18 @@ class DCG(Environment[EnvState, EnvParams]):
       reward_when_caught: whether the item collected on the step the
         collector ends on the opponent's cell (step 3) counts.
       energy_metric: what ``info["episode_energy"]`` counts (as for the DCP).
+      reward_area: ``None`` (the drop covers the whole grid) or the size ``s``
+        (``1 <= s <= grid_size``) of the *reward area* of section 5.5.5 (Fig.
+        5.10): the units are dropped uniformly over the ``s x s`` square in the
+        bottom-right corner, rows and columns ``N-s .. N-1`` (the base only
+        when ``s == N`` and ``items_on_base``). The opponent's start is drawn
+        as without it, so it may start on the item.
     """
 
     def __init__(
         self,
         grid_size: int = 5,
-        total_reward: int = 10,
+        total_reward: int | None = None,
         strategies=STANDARD_STRATEGIES,
         history: int = 10,
         obs_history: bool = True,
@@ -135,10 +145,19 @@ class DCG(Environment[EnvState, EnvParams]):
         patrol_target: str = "other",
         reward_when_caught: bool = True,
         energy_metric: str = "not_stay_in_base",
+        reward_area: int | None = None,
     ):
         self.grid_size = grid.check_grid_size(grid_size)
         if self.grid_size**2 > MAX_RANGE:
             raise ValueError(f"grid_size must be <= 255 (N*N cells <= {MAX_RANGE}), got {grid_size}")
+        if reward_area is not None:
+            reward_area = _check_int("reward_area", reward_area, 1)
+            if reward_area > self.grid_size:
+                raise ValueError(
+                    f"reward_area must be between 1 and grid_size ({self.grid_size}), got {reward_area}")
+        self.reward_area = reward_area
+        if total_reward is None:
+            total_reward = 10 if reward_area is None else 1
         self.total_reward = _check_int("total_reward", total_reward, 1)
         self._strategies = opp_lib.get_strategies(strategies)
         self.strategies = tuple(s.name for s in self._strategies)
@@ -154,7 +173,7 @@ class DCG(Environment[EnvState, EnvParams]):
     def _config(self) -> tuple:
         return (self.grid_size, self.total_reward, self._strategies, self.history, self.obs_history,
                 self.history_fill, self.items_on_base, self.opponent_start, self.patrol_target,
-                self.reward_when_caught, self.energy_metric)
+                self.reward_when_caught, self.energy_metric, self.reward_area)
 
     def __repr__(self) -> str:
         return (
@@ -162,7 +181,7 @@ class DCG(Environment[EnvState, EnvParams]):
             f"history={self.history}, obs_history={self.obs_history}, history_fill={self.history_fill!r}, "
             f"items_on_base={self.items_on_base}, opponent_start={self.opponent_start!r}, "
             f"patrol_target={self.patrol_target!r}, reward_when_caught={self.reward_when_caught}, "
-            f"energy_metric={self.energy_metric!r})"
+            f"energy_metric={self.energy_metric!r}, reward_area={self.reward_area})"
         )
 
     # -- parameters -------------------------------------------------------------------
@@ -190,6 +209,25 @@ class DCG(Environment[EnvState, EnvParams]):
             chase_tie=jnp.int32(CHASE_TIES.index(chase_tie)),
         )
 
+    def reward_area_cells(self, size: int | None = None) -> np.ndarray:
+        """Row-major flat indices of the cells that can hold an item (section 5.5.5, Fig. 5.10).
+
+        The bottom-right ``size x size`` square (``size`` defaults to
+        ``self.reward_area``; ``None`` there means the whole grid), base
+        included only when it lies inside and ``items_on_base`` is true.
+        """
+        n = self.grid_size
+        size = self.reward_area if size is None else size
+        if size is None:
+            size = n
+        elif isinstance(size, bool) or not isinstance(size, (int, np.integer)) or not 1 <= size <= n:
+            raise ValueError(f"reward_area must be an int between 1 and grid_size ({n}), got {size!r}")
+        r, c = np.divmod(np.arange(n * n), n)
+        inside = (r >= n - size) & (c >= n - size)
+        if not self.items_on_base:
+            inside[0] = False
+        return np.flatnonzero(inside).astype(np.int32)
+
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, 2 + (self.history if self.obs_history else 0))
 
@@ -198,7 +236,12 @@ class DCG(Environment[EnvState, EnvParams]):
         """The initial state of section 5.3: collector in the base, random opponent, items and strategy."""
         n, cells = self.grid_size, self.grid_size**2
         k_items, k_opp, k_target, k_strat = jax.random.split(key, 4)
-        items, _ = drop_units(k_items, self.total_reward, cells, 0 if self.items_on_base else 1)
+        if self.reward_area is None:
+            items, _ = drop_units(k_items, self.total_reward, cells, 0 if self.items_on_base else 1)
+        else:  # the reward area (section 5.5.5): the drop over its cells
+            area = self.reward_area_cells()
+            area_items, _ = drop_units(k_items, self.total_reward, area.size)
+            items = jnp.zeros(cells, jnp.float32).at[area].set(area_items)
         if self.opponent_start == "not_base":
             start = 1 + uniform_index(k_opp, (), cells - 1)
         else:
