@@ -1,0 +1,105 @@
+"""The DCG networks of section 5.4: shapes, VNN's input, EMNN's alpha, OMN's isolation from CoNN's loss."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxdc.agents.a2c import A2CConfig, a2c_loss, aux_cross_entropy
+from jaxdc.nets import DCG_NETS, EMNN, IMNN, OMNCoNN, VNN, make_dcg_net
+
+B, N, K = 3, 5, 4
+
+
+def _obs(seed=0, k=K):
+    return jax.random.normal(jax.random.PRNGKey(seed), (B, N, N, 2 + k))
+
+
+@pytest.fixture(scope="module")
+def nets():
+    obs = _obs()
+    return {name: (make_dcg_net(name, K), make_dcg_net(name, K).init(jax.random.PRNGKey(1), obs)) for name in DCG_NETS}
+
+
+def test_registry_and_output_shapes(nets):
+    assert set(DCG_NETS) == {"vnn", "imnn", "emnn", "omn_conn"}
+    types = {"vnn": VNN, "imnn": IMNN, "emnn": EMNN, "omn_conn": OMNCoNN}
+    obs = _obs(2)
+    for name, (net, params) in nets.items():
+        assert type(net) is types[name] and not net.uses_heuristics and net.num_actions == 9
+        out = net.apply(params, obs)
+        assert [o.shape for o in out] == ([(B, 9), (B,), (B, 9)] if name in ("emnn", "omn_conn") else [(B, 9), (B,)])
+        assert getattr(net, "has_aux", False) == (name in ("emnn", "omn_conn"))
+        np.testing.assert_allclose(net.apply(params, obs, method="value"), out[1], rtol=1e-6, atol=1e-6)
+
+
+def test_vnn_ignores_the_history_channels(nets):
+    net, params = nets["vnn"]
+    obs = _obs(3)
+    changed = obs.at[..., 2:].set(jax.random.normal(jax.random.PRNGKey(9), obs[..., 2:].shape))
+    for a, b in zip(net.apply(params, obs), net.apply(params, changed)):
+        np.testing.assert_array_equal(a, b)
+    net_i, params_i = nets["imnn"]  # IMNN reads them
+    assert not np.allclose(net_i.apply(params_i, obs)[0], net_i.apply(params_i, changed)[0])
+    assert net.apply(params, obs[..., :2])[0].shape == (B, 9)  # and works on the two planes alone
+
+
+def test_history_nets_check_k_and_the_registry_validates():
+    with pytest.raises(ValueError, match="net must be one of"):
+        make_dcg_net("cnn")
+    for name in ("imnn", "emnn", "omn_conn"):
+        with pytest.raises(ValueError, match=r"history \(k\) must be an int >= 1"):
+            make_dcg_net(name, 0)
+        with pytest.raises(ValueError, match=r"expects observations \[B, N, N, 6\]"):
+            make_dcg_net(name, K).init(jax.random.PRNGKey(0), _obs(k=K + 1))
+    assert isinstance(make_dcg_net("vnn", 0), VNN)  # VNN has no history
+
+
+def _batch(seed=4):
+    k1, k2, k3 = jax.random.split(jax.random.PRNGKey(seed), 3)
+    return (_obs(seed), jnp.zeros((B, 1, 9)), jax.random.randint(k1, (B,), 0, 9),
+            jax.random.normal(k2, (B,)), jax.random.randint(k3, (B,), 0, 9))
+
+
+def test_emnn_auxiliary_loss_is_weighted_by_alpha(nets):
+    net, params = nets["emnn"]
+    obs, h, actions, returns, targets = _batch()
+    ce, _ = aux_cross_entropy(net.apply(params, obs)[2], targets)
+    base, m0 = a2c_loss(params, net.apply, obs, h, actions, returns, A2CConfig(aux_coef=0.0), targets)
+    grads = {}
+    for alpha in (0.001, 0.0001):
+        loss, m = a2c_loss(params, net.apply, obs, h, actions, returns, A2CConfig(aux_coef=alpha), targets)
+        np.testing.assert_allclose(loss - base, alpha * ce, rtol=1e-4)
+        np.testing.assert_allclose(m["aux_loss"], ce, rtol=1e-6)
+        grads[alpha] = jax.grad(lambda p, a=alpha: a2c_loss(p, net.apply, obs, h, actions, returns,
+                                                            A2CConfig(aux_coef=a), targets)[0])(params)
+    # the opponent head learns only from the alpha-weighted cross-entropy: its gradient scales with alpha
+    g1, g2 = (grads[a]["params"]["opponent_out"]["kernel"] for a in (0.001, 0.0001))
+    assert np.abs(g1).max() > 0
+    np.testing.assert_allclose(g1, 10 * g2, rtol=1e-3, atol=1e-12)
+
+
+def _norms(tree):
+    return [float(jnp.abs(x).max()) for x in jax.tree_util.tree_leaves(tree)]
+
+
+def test_omn_gets_no_gradient_from_the_policy_and_value_loss(nets):
+    net, params = nets["omn_conn"]
+    obs, h, actions, returns, targets = _batch(5)
+    ac_only = A2CConfig(aux_coef=0.0)  # policy + value + entropy terms of CoNN
+    g = jax.grad(lambda p: a2c_loss(p, net.apply, obs, h, actions, returns, ac_only, targets)[0])(params)["params"]
+    assert max(_norms(g["omn"])) == 0.0
+    assert max(_norms(g["conn"])) > 0.0
+    # and OMN's cross-entropy trains OMN alone
+    g_ce = jax.grad(lambda p: aux_cross_entropy(net.apply(p, obs)[2], targets)[0])(params)["params"]
+    assert max(_norms(g_ce["conn"])) == 0.0 and max(_norms(g_ce["omn"])) > 0.0
+
+
+def test_conn_reads_omns_prediction(nets):
+    net, params = nets["omn_conn"]
+    obs = _obs(6)
+    other = jax.tree_util.tree_map(lambda x: x, params)
+    other["params"]["omn"]["opponent_out"]["bias"] = params["params"]["omn"]["opponent_out"]["bias"] + jnp.arange(9.0)
+    assert not np.allclose(net.apply(params, obs)[0], net.apply(other, obs)[0])
