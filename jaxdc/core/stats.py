@@ -1,0 +1,67 @@
+"""Episode statistics shared by the DCP and the DCG evaluations (Tables 4.1-4.10, Figs. 5.6-5.19).
+
+Both problems report the same columns over a batch of finished episodes:
+the episode reward, the energy consumed and the reward per energy (RPE),
+each as mean and SD, plus how the episodes ended. The final states of both
+environments carry ``ep_reward``, ``ep_energy``, ``outcome`` and ``time``,
+so one function serves both; each problem passes its own outcome names.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: How RPE treats an episode that consumed no energy (footnote 4 of Table 4.3 is silent).
+RPE_ZERO = ("exclude", "zero")
+
+
+def mean_sd(x) -> dict:
+    """``{"mean", "sd"}`` of a 1-D sample (population SD, ``ddof=0``); NaNs for an empty one."""
+    x = np.asarray(x, np.float64)
+    if x.size == 0:
+        return {"mean": math.nan, "sd": math.nan}
+    return {"mean": float(x.mean()), "sd": float(x.std())}
+
+
+def reward_per_energy(reward, energy, rpe_zero: str = "exclude") -> np.ndarray:
+    """Per-episode ``reward / energy`` (footnote 4 of Table 4.3; the RPE of Figs. 5.7, 5.9, 5.12).
+
+    Episodes that used no energy are left out (``rpe_zero="exclude"``) or
+    count as RPE 0 (``"zero"``).
+    """
+    if rpe_zero not in RPE_ZERO:
+        raise ValueError(f"rpe_zero must be one of {RPE_ZERO}, got {rpe_zero!r}")
+    reward = np.asarray(reward, np.float64)
+    energy = np.asarray(energy, np.float64)
+    used = energy > 0
+    rpe = np.where(used, reward / np.where(used, energy, 1.0), 0.0)
+    return rpe[used] if rpe_zero == "exclude" else rpe
+
+
+def episode_summary(final_states, outcomes, rpe_zero: str = "exclude", mask=None) -> dict:
+    """Mean/SD of reward, energy, RPE and steps over finished episodes, plus outcome counts.
+
+    ``final_states`` is a batch of final environment states (``ep_reward``,
+    ``ep_energy``, ``outcome``, ``time``), ``outcomes`` the environment's
+    outcome names (index = ``outcome``; ``"running"`` is not counted) and
+    ``mask`` (optional, boolean ``[episodes]``) selects a subset, e.g. one
+    opponent strategy. RPE is the mean of per-episode ``reward / energy``
+    (footnote 4: "Reward per energy is also an average over 10,000 runs").
+    """
+    reward = np.asarray(final_states.ep_reward, np.float64)
+    energy = np.asarray(final_states.ep_energy, np.float64)
+    outcome = np.asarray(final_states.outcome)
+    steps = np.asarray(final_states.time, np.float64)
+    if mask is not None:
+        mask = np.asarray(mask, bool)
+        reward, energy, outcome, steps = reward[mask], energy[mask], outcome[mask], steps[mask]
+    return {
+        "reward": mean_sd(reward),
+        "energy": mean_sd(energy),
+        "rpe": mean_sd(reward_per_energy(reward, energy, rpe_zero)),
+        "episodes": int(reward.size),
+        "outcomes": {name: int((outcome == i).sum()) for i, name in enumerate(outcomes) if name != "running"},
+        "steps": mean_sd(steps),
+    }

@@ -1,0 +1,50 @@
+"""One episode as a list of states, for drawing gameplay strips and animations (thesis Figs. 5.13-5.15).
+
+:func:`jaxdc.core.rollout.run_episodes` keeps only the final state of each
+episode; the viewer needs every state of one game. :func:`play_episode`
+plays one unbatched episode of any :class:`jaxdc.core.env.Environment` with a
+``policy(key, obs, state) -> action`` in one jitted ``lax.scan`` and returns
+the states from the initial one up to the last (terminal or truncated) one.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+
+def play_episode(env, params, policy: Callable, key, max_steps: int) -> list:
+    """States ``s_0 .. s_T`` of one episode (unbatched pytrees on the host), ``T <= max_steps``.
+
+    The reset uses ``split(key)[0]``; step ``t`` draws its action and its
+    transition from ``fold_in(split(key)[1], t)``, so the same key gives the
+    same game, and two policies with the same key start from the same state
+    (as the thesis' gameplay figures do). The episode stops at the first
+    terminated or truncated step, or after ``max_steps`` steps.
+    """
+    if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
+        raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
+    max_steps = int(max_steps)
+
+    @jax.jit
+    def run(key):
+        k_reset, k_run = jax.random.split(key)
+        obs, state = env.reset_env(k_reset, params)
+
+        def step(carry, t):
+            obs, state, done = carry
+            k_act, k_step = jax.random.split(jax.random.fold_in(k_run, t))
+            action = policy(k_act, obs, state)
+            obs2, state2, _, term, trunc, _ = env.step_env(k_step, state, action, params)
+            return (obs2, state2, done | term | trunc), (state2, done | term | trunc)
+
+        _, (states, done) = jax.lax.scan(step, (obs, state, jnp.bool_(False)), jnp.arange(max_steps))
+        return state, states, done
+
+    first, states, done = jax.device_get(run(key))
+    done = np.asarray(done)
+    length = int(np.argmax(done)) + 1 if done.any() else max_steps
+    return [first] + [jax.tree_util.tree_map(lambda x, i=i: x[i], states) for i in range(length)]

@@ -1,0 +1,204 @@
+"""Batched evaluation of DCG collectors: the statistics of section 5.5 (Figs. 5.6-5.19).
+
+:func:`evaluate_policy` plays many games of a ``policy(key, obs, state) ->
+action`` at once (:func:`jaxdc.core.rollout.run_episodes`, jitted) and
+:func:`summarize` turns them into the thesis' numbers: the *episode reward*
+and the *reward per energy* (RPE, as for the DCP: the mean of per-game
+``reward / energy``), each as mean and SD over the games (section 5.5.3: "We
+run experiments in 10,000 randomly generated environments"), how the games
+ended, the same numbers for each opponent strategy (``info["strategy"]``),
+and, for a network that predicts the opponent's action (EMNN's and OMN's
+``pi^o``, sections 5.4.4-5.4.5), its accuracy: the fraction of steps where
+the predicted action is the opponent's action ``o_t`` of that step (the
+"accuracy in predicting opponent actions" of section 5.5.3: about 75% for
+EMNN and over 98% for OMN).
+
+The accuracy is counted inside the game: :class:`Scored` wraps the
+environment so that its state also counts, per game, the steps and the
+correctly predicted steps. The policy returns ``(action, predicted o_t)``, so
+the network runs once per step for both.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from jaxdc.core.rollout import run_episodes
+from jaxdc.core.stats import RPE_ZERO, episode_summary
+from jaxdc.dcg.env import DCG, OUTCOMES, EnvParams, EnvState
+
+#: Default number of games (section 5.5.3).
+EPISODES = 10_000
+#: Games stepped at once by default: fewer lanes than games lets finished lanes start new games
+#: instead of idling until the longest game ends (never changes the numbers).
+LANES = 512
+
+
+@struct.dataclass
+class ScoredState:
+    """A game state plus the counts of the opponent-action prediction over the game so far."""
+
+    game: EnvState
+    predicted: jax.Array  # int32 steps with a prediction of o_t
+    correct: jax.Array  # int32 of those, steps where the prediction equals o_t
+
+    @property
+    def time(self):
+        return self.game.time
+
+
+class Scored:
+    """A :class:`~jaxdc.dcg.env.DCG` whose actions are ``(action, predicted o_t)`` (``-1``: no prediction).
+
+    ``step_env`` plays ``action`` and counts whether the prediction equals the
+    opponent's action ``info["opponent_action"]`` of the same step (the
+    opponent moves first, section 5.3; the network predicts it from the
+    observation before the step, as it is trained to, Eq. 5.1).
+    """
+
+    def __init__(self, env: DCG):
+        self.env = env
+
+    def __eq__(self, other):
+        return type(other) is Scored and other.env == self.env
+
+    def __hash__(self):
+        return hash(("Scored", self.env))
+
+    def reset_env(self, key, params: EnvParams):
+        obs, state = self.env.reset_env(key, params)
+        return obs, ScoredState(state, jnp.int32(0), jnp.int32(0))
+
+    def step_env(self, key, state: ScoredState, action, params: EnvParams):
+        action, prediction = action
+        obs, game, reward, term, trunc, info = self.env.step_env(key, state.game, action, params)
+        has = prediction >= 0
+        hit = has & (prediction == info["opponent_action"])
+        scored = ScoredState(game, state.predicted + has.astype(jnp.int32), state.correct + hit.astype(jnp.int32))
+        return obs, scored, reward, term, trunc, info
+
+
+def with_prediction(policy: Callable, predict: Callable | None = None) -> Callable:
+    """``policy(key, obs, state) -> (action, predicted o_t)`` for :class:`Scored`.
+
+    ``predict(obs) -> int`` is the predicted opponent action (the argmax of an
+    auxiliary head, see :func:`aux_predictor`); without one, ``-1``.
+    """
+
+    def scored(key, obs, state):
+        guess = jnp.int32(-1) if predict is None else jnp.asarray(predict(obs), jnp.int32)
+        return policy(key, obs, state.game), guess
+
+    return scored
+
+
+def aux_predictor(net, params) -> Callable | None:
+    """``obs -> argmax pi^o(s, h)`` of a network with an opponent-action head (``net.has_aux``), else ``None``.
+
+    Inside one jitted step XLA computes the network once for the action and
+    the prediction (common subexpressions of the same inputs are merged).
+    """
+    if not getattr(net, "has_aux", False):
+        return None
+    dummy = jnp.zeros((1, 1, 9), jnp.float32)  # networks without heuristics ignore them
+
+    def predict(obs):
+        out = net.apply(params, obs[None], dummy)
+        return jnp.argmax(out[2][0]).astype(jnp.int32)
+
+    return predict
+
+
+def check_episodes(episodes) -> int:
+    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
+        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
+    return int(episodes)
+
+
+def evaluate_policy(env: DCG, params: EnvParams, policy: Callable, key, episodes: int = EPISODES,
+                    predict: Callable | None = None, lanes: int | None = LANES) -> ScoredState:
+    """Final states of ``episodes`` games of ``policy`` (jitted, batched), with the prediction counts.
+
+    ``policy(key, obs, state) -> action`` (e.g. :func:`jaxdc.agents.a2c.make_policy`);
+    ``predict(obs) -> o_t`` optionally predicts the opponent's action (see
+    :func:`aux_predictor`). The same ``key`` gives the same numbers, whatever
+    ``lanes``.
+    """
+    if not isinstance(env, DCG):
+        raise TypeError(f"env must be a jaxdc.dcg.env.DCG, got {type(env).__name__}")
+    episodes = check_episodes(episodes)
+    scored = Scored(env)
+    play = with_prediction(policy, predict)
+    return jax.jit(lambda k: run_episodes(scored, params, play, k, episodes, lanes))(key)
+
+
+@functools.partial(jax.jit, static_argnames=("env", "net", "greedy", "episodes", "lanes"))
+def _run_network(env, params, net, net_params, key, greedy, episodes, lanes):
+    from jaxdc.agents.a2c import make_policy
+
+    play = with_prediction(make_policy(net, net_params, None, greedy=greedy), aux_predictor(net, net_params))
+    return run_episodes(Scored(env), params, play, key, episodes, lanes)
+
+
+def evaluate_network(env: DCG, params: EnvParams, net, net_params, key, episodes: int = EPISODES,
+                     greedy: bool = False, lanes: int | None = LANES) -> ScoredState:
+    """:func:`evaluate_policy` of a DCG network (section 5.4) with its opponent-action accuracy when it has a head.
+
+    The collector samples from ``pi`` (section 5.5.1: "The collector's policy
+    is stochastic"), or takes its argmax if ``greedy``. Compiled once per
+    environment configuration and network; energies, step caps and parameters
+    of the same shapes reuse the compiled code.
+    """
+    if not isinstance(env, DCG):
+        raise TypeError(f"env must be a jaxdc.dcg.env.DCG, got {type(env).__name__}")
+    return _run_network(env, params, net, net_params, key, bool(greedy), check_episodes(episodes), lanes)
+
+
+def accuracy(correct, predicted) -> float | None:
+    """``sum(correct) / sum(predicted)``: the fraction of predicted steps where the prediction was ``o_t``.
+
+    ``None`` when nothing was predicted (a network without an opponent-action head).
+    """
+    total = int(np.sum(predicted))
+    return None if total == 0 else float(np.sum(correct)) / total
+
+
+def summarize(final: ScoredState, strategies, rpe_zero: str = "exclude") -> dict:
+    """The section-5.5 statistics of :func:`evaluate_policy`'s result.
+
+    Returns the fields of :func:`jaxdc.core.stats.episode_summary` (``reward``,
+    ``energy``, ``rpe``, ``steps``: ``{"mean", "sd"}``; ``episodes``;
+    ``outcomes``), ``opponent_accuracy`` (float or ``None``) and
+    ``per_strategy``: the same fields for the games of each strategy in
+    ``strategies`` (the env's strategy names; ``final.game.strategy``
+    indexes them). Weighted by their ``episodes``, the per-strategy means add
+    up to the total.
+    """
+    if rpe_zero not in RPE_ZERO:
+        raise ValueError(f"rpe_zero must be one of {RPE_ZERO}, got {rpe_zero!r}")
+    final = jax.device_get(final)
+    strategy = np.asarray(final.game.strategy)
+    predicted, correct = np.asarray(final.predicted), np.asarray(final.correct)
+    out = episode_summary(final.game, OUTCOMES, rpe_zero)
+    out["opponent_accuracy"] = accuracy(correct, predicted)
+    out["per_strategy"] = {}
+    for i, name in enumerate(strategies):
+        mask = strategy == i
+        s = episode_summary(final.game, OUTCOMES, rpe_zero, mask)
+        s["opponent_accuracy"] = accuracy(correct[mask], predicted[mask])
+        out["per_strategy"][name] = s
+    return out
+
+
+def relative_increase(value: float, baseline: float) -> float:
+    """``100 * (value / baseline - 1)``: the "% more reward than VNN" of section 5.5.3 (NaN for a 0 baseline)."""
+    if baseline == 0 or math.isnan(baseline):
+        return math.nan
+    return 100.0 * (value / baseline - 1.0)

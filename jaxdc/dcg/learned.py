@@ -1,0 +1,222 @@
+"""Trained DCG collectors (section 5.4): load their parameters and rebuild the game they were trained in.
+
+A trained network comes from one of three places:
+
+* a **shipped** parameter file ``jaxdc/assets/dcg/<name>.msgpack``
+  (:func:`shipped`, :func:`shipped_names`);
+* an **exported** parameter file written by :func:`jaxdc.pretrained.save`;
+* a **run folder** of ``python -m train.dcg`` (its latest orbax checkpoint).
+
+:func:`load` returns a :class:`Learned`: the network (VNN, IMNN, EMNN or
+OMN + CoNN, :func:`jaxdc.nets.make_dcg_net`), its parameters and the metadata
+of its training, whatever the source. Every source is checked: a missing or
+damaged file, another problem, an unknown network, or parameters whose
+shapes do not fit the network (another grid size or history length) raise a
+``ValueError`` that names the problem. :meth:`Learned.game` rebuilds the DCG
+of training, with optional changes (energy, strategy set, reward area, ...).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import os
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+from jaxdc import pretrained
+from jaxdc.core.tree_check import check_like
+from jaxdc.dcg.env import DCG
+from jaxdc.dcg.opponents import STANDARD_STRATEGIES
+
+#: Networks of section 5.4, in the order of the thesis' figures.
+NETS = ("vnn", "imnn", "emnn", "omn_conn")
+#: The standard setting of section 5.5.1 (and ``train.dcg``'s defaults) for metadata that lacks a key.
+DEFAULT_SETTING = {"grid_size": 5, "total_reward": 10, "energy": 15.0, "max_steps": 100,
+                   "strategies": list(STANDARD_STRATEGIES), "history": 10, "chase_tie": "straight"}
+#: ``DCG(...)`` options that change the dynamics, taken from the metadata (``"env"`` or top level) when present.
+ENV_OPTION_KEYS = ("history_fill", "items_on_base", "opponent_start", "patrol_target", "reward_when_caught",
+                   "energy_metric")
+
+
+def make_network(name: str, history: int = 10):
+    """The flax module of ``name`` (:data:`NETS`) for a history of ``k = history`` planes."""
+    from jaxdc.nets import make_dcg_net
+
+    if name not in NETS:
+        raise ValueError(f"net must be one of {NETS}, got {name!r}")
+    return make_dcg_net(name, history=history)
+
+
+def init_params(net, grid_size: int, history: int, key=None):
+    """Fresh parameters of ``net`` for observations ``[1, N, N, 2 + k]`` (``k = 0``: no history, VNN)."""
+    obs = jnp.zeros((1, grid_size, grid_size, 2 + history), jnp.float32)
+    return net.init(key if key is not None else jax.random.PRNGKey(0), obs, jnp.zeros((1, 1, 9), jnp.float32))
+
+
+@dataclasses.dataclass(frozen=True)
+class Learned:
+    """A trained DCG network with its parameters and the metadata of its training."""
+
+    net_name: str
+    net: Any  # a flax module (jaxdc.nets)
+    params: Any
+    metadata: dict
+    source: str
+
+    def setting(self) -> dict:
+        """The setting of training: ``grid_size, total_reward, energy, max_steps, strategies, history, chase_tie``."""
+        out = {}
+        for k, default in DEFAULT_SETTING.items():
+            v = self.metadata.get(k, self.metadata.get("env", {}).get(k, default))
+            out[k] = v
+        out["strategies"] = list(out["strategies"]) if not isinstance(out["strategies"], str) \
+            else out["strategies"].split(",")
+        return out
+
+    @property
+    def steps(self):
+        """Training steps (``T_max``), from the metadata; ``None`` if not recorded."""
+        return self.metadata.get("steps", self.metadata.get("algorithm", {}).get("total_steps"))
+
+    @property
+    def has_aux(self) -> bool:
+        """Whether the network predicts the opponent's action (EMNN, OMN + CoNN)."""
+        return bool(getattr(self.net, "has_aux", False))
+
+    def game(self, energy=None, strategies=None, reward_area=None, max_steps=None):
+        """``(env, params)``: the DCG of training, with the given settings changed.
+
+        ``reward_area`` (Figs. 5.10-5.12) places one unit item uniformly in the
+        bottom-right ``s x s`` square. The initial states depend only on the
+        key, not on the network, so two networks evaluated with the same key
+        play the same games.
+        """
+        s = self.setting()
+        meta_env = self.metadata.get("env", {})
+        options = {k: meta_env.get(k, self.metadata.get(k)) for k in ENV_OPTION_KEYS}
+        options = {k: v for k, v in options.items() if v is not None}
+        if reward_area is not None:
+            if "reward_area" not in inspect.signature(DCG).parameters:
+                raise ValueError("reward_area: this jaxdc.dcg.env.DCG has no reward-area option yet")
+            options["reward_area"] = reward_area
+        # train.dcg plays VNN without history planes (metadata history 0); VNN reads obs[..., :2] either way
+        k = int(s["history"])
+        obs_history = bool(self.metadata.get("obs_history", k > 0))
+        env = DCG(grid_size=s["grid_size"], total_reward=1 if reward_area is not None else s["total_reward"],
+                  strategies=tuple(strategies if strategies is not None else s["strategies"]),
+                  history=max(k, 1), obs_history=obs_history, **options)
+        params = env.make_params(energy=s["energy"] if energy is None else energy,
+                                 max_steps=s["max_steps"] if max_steps is None else max_steps,
+                                 chase_tie=s["chase_tie"])
+        return env, params
+
+    def policy(self, greedy: bool = False):
+        """``policy(key, obs, state) -> action``: samples from ``pi`` (section 5.5.1: "The collector's policy is
+        stochastic"), or takes its argmax if ``greedy`` (the deterministic policy of Figs. 5.13-5.15)."""
+        from jaxdc.agents import a2c
+
+        return a2c.make_policy(self.net, self.params, None, greedy=greedy)
+
+    def describe(self) -> str:
+        """One line: network, training setting and source."""
+        s = self.setting()
+        alpha = self.metadata.get("alpha")
+        return (f"{self.net_name}{f' (alpha {alpha:g})' if self.net_name == 'emnn' and alpha is not None else ''} "
+                f"trained on {s['grid_size']}x{s['grid_size']}, {s['total_reward']} rewards, energy {s['energy']:g}, "
+                f"strategies {','.join(s['strategies'])}, history {s['history']}, "
+                f"{self.steps or '?'} steps, seed {self.metadata.get('seed', '?')} ({self.source})")
+
+
+def _network_for(meta: dict, source: str):
+    name = meta.get("net")
+    if name not in NETS:
+        raise ValueError(f"{source}: metadata names net {name!r}, not a DCG network {NETS}")
+    history = meta.get("history", DEFAULT_SETTING["history"])
+    return name, make_network(name, history)
+
+
+def _check(name, net, params, meta, source):
+    n = meta.get("grid_size", DEFAULT_SETTING["grid_size"])
+    k = meta.get("history", DEFAULT_SETTING["history"])
+    what = f"a {name} network with history k={k} on a {n}x{n} grid"
+    return check_like(init_params(net, n, k), params, source, what,
+                      "was it trained on another grid size or history length?")
+
+
+def load(path, net: str | None = None) -> Learned:
+    """Load a trained DCG network from a parameter file (``.msgpack``) or a ``train.dcg`` run folder.
+
+    ``net``, when given, must be the stored network's name (else ``ValueError``).
+    """
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        return _load_run(path, net)
+    blob = path if path.endswith(".msgpack") else path + ".msgpack"
+    if not os.path.isfile(blob):
+        raise ValueError(f"checkpoint {path!r} not found: expected a train.dcg run folder or a .msgpack "
+                         "parameter file (jaxdc.pretrained)")
+    meta = pretrained.read_metadata(blob)
+    if meta.get("problem") != "dcg":
+        raise ValueError(f"parameter file {blob} is for problem {meta.get('problem')!r}, not 'dcg'")
+    name, module = _network_for(meta, blob)
+    if net is not None and name != net:
+        raise ValueError(f"parameter file {blob} holds a {name!r} network, not {net!r}")
+    params, meta = pretrained.load(blob, problem="dcg", net=name)
+    return Learned(name, module, _check(name, module, params, meta, blob), meta, blob)
+
+
+def _load_run(folder: str, net: str | None) -> Learned:
+    """The latest checkpoint of a ``train.dcg`` run folder (or of its ``checkpoints/`` subfolder)."""
+    from jaxdc import checkpoint
+
+    ckpt = os.path.join(folder, "checkpoints")
+    if not os.path.isdir(ckpt):
+        ckpt = folder
+    if not checkpoint.steps(ckpt):
+        raise ValueError(f"checkpoint {folder!r}: no orbax checkpoint found (expected a train.dcg run folder "
+                         "with checkpoints/, or a .msgpack parameter file)")
+    meta = checkpoint.read_metadata(ckpt)
+    source = f"checkpoint {folder!r}"
+    name, module = _network_for(meta, source)
+    if net is not None and name != net:
+        raise ValueError(f"{source} holds a {name!r} network, not {net!r}")
+    state, meta = checkpoint.restore(ckpt, _train_state(module, meta, source), {"net": name})
+    meta = dict(meta, problem="dcg")
+    return Learned(name, module, _check(name, module, state.params, meta, source), meta, ckpt)
+
+
+def _train_state(module, meta: dict, source: str):
+    """An initial A2C training state with the structure of the checkpointed one (the restore target)."""
+    from jaxdc.agents import a2c
+
+    learned = Learned(meta["net"], module, None, meta, source)
+    env, env_params = learned.game()
+    fields = {f.name for f in dataclasses.fields(a2c.A2CConfig)}
+    algo = {k: v for k, v in meta.get("algorithm", {}).items() if k in fields}
+    try:
+        config = a2c.A2CConfig(**algo)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{source}: the metadata has an unusable algorithm configuration: {e}") from None
+    aux = (lambda info: info["opponent_action"]) if getattr(module, "has_aux", False) else None
+    return a2c.make_train(config, env, env_params, module, aux_target=aux).init(jax.random.PRNGKey(0))
+
+
+def shipped_names() -> list[str]:
+    """Names of the shipped DCG parameter files (``jaxdc/assets/dcg/*.msgpack``)."""
+    folder = os.path.join(pretrained.ASSETS, "dcg")
+    if not os.path.isdir(folder):
+        return []
+    return sorted(f[: -len(".msgpack")] for f in os.listdir(folder) if f.endswith(".msgpack"))
+
+
+def shipped(name: str) -> Learned:
+    """The shipped network ``name`` (e.g. ``"omn_conn"``; see :func:`shipped_names`)."""
+    try:
+        path = pretrained.shipped("dcg", name)
+    except ValueError as e:
+        raise ValueError(f"--net {name}: {e}; train one with `python -m train.dcg --net ...` and pass "
+                         "--checkpoint RUN_FOLDER") from None
+    return load(path)
