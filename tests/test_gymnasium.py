@@ -10,6 +10,7 @@ from gymnasium.utils.env_checker import check_env
 from gymnasium.vector import AutoresetMode
 
 import jaxdc
+from jaxdc.core.env import Environment
 from jaxdc.dcp.env import DCP, OUTCOMES
 from jaxdc.wrappers.gymnasium import JaxToGymnasium, JaxVectorEnv, make_dcp
 
@@ -43,7 +44,7 @@ def test_registered_and_reimport_safe():
     assert jaxdc.__version__ == "0.1.0"
 
 
-@pytest.mark.parametrize("kwargs", [{}, {"render_mode": "ansi"}, {"grid_size": 5, "risk": "low"}])
+@pytest.mark.parametrize("kwargs", [{}, {"render_mode": "ansi"}, {"grid_size": 5, "risk": "low", "render_mode": "rgb_array"}])
 def test_check_env(kwargs):
     env = gymnasium.make(ID, **kwargs)
     with warnings.catch_warnings():
@@ -82,8 +83,10 @@ def test_step_output_types_and_info():
 def test_invalid_inputs():
     with pytest.raises(ValueError, match="ansi"):
         make_dcp(render_mode="human")
-    with pytest.raises(ValueError, match="ansi"):
-        gymnasium.make(ID, render_mode="rgb_array")
+    with pytest.raises(ValueError, match="rgb_array"):
+        gymnasium.make(ID, render_mode="human")
+    with pytest.raises(ValueError, match="DCP and DCG states only"):
+        JaxToGymnasium(_PlainEnv(), render_mode="rgb_array")
     with pytest.raises(ValueError, match="risk preset"):
         gymnasium.make(ID, risk="extreme")
     with pytest.raises(ValueError, match="grid_size"):
@@ -210,6 +213,20 @@ def test_ansi_render():
     assert make_dcp().render() is None  # no render_mode
 
 
+def test_rgb_array_render():
+    from jaxdc.viewer import cell_center
+    from jaxdc.viewer.frame import frame_size
+
+    env = gymnasium.make(ID, grid_size=5, render_mode="rgb_array").unwrapped
+    env.reset(seed=1)
+    frame = env.render()
+    assert frame.dtype == np.uint8 and frame.shape == frame_size(5) + (3,)
+    y, x = cell_center(5, *(int(v) for v in np.asarray(env.state.pos)))
+    r, g, b = frame[y + 10, x].astype(int)  # inside the agent's disc, below its energy label
+    assert b > r + 80
+    assert env.metadata["render_modes"] == ["ansi", "rgb_array"]
+
+
 # -- vector env ---------------------------------------------------------------------------
 
 
@@ -303,3 +320,10 @@ def test_vector_render():
     frames = venv.render()
     assert len(frames) == 4 and all(len(f.rstrip("\n").split("\n")) == 6 for f in frames)
     assert all("A" in f for f in frames)
+
+
+class _PlainEnv(Environment):
+    """An environment the viewer cannot draw (neither a DCP nor a DCG)."""
+
+    def _config(self) -> tuple:
+        return ()

@@ -15,7 +15,7 @@ ID = "jaxdc/DCG-v0"
 
 
 @pytest.mark.parametrize("kwargs", [{}, {"render_mode": "ansi", "strategies": ("patrol", "restricted", "double_blind")},
-                                    {"grid_size": 4, "history": 2, "obs_history": False}])
+                                    {"grid_size": 4, "history": 2, "obs_history": False, "render_mode": "rgb_array"}])
 def test_check_env(kwargs):
     env = gymnasium.make(ID, **kwargs)
     with warnings.catch_warnings():
@@ -63,3 +63,19 @@ def test_bad_kwargs():
         gymnasium.make(ID, strategies=("nope",))
     with pytest.raises(ValueError, match="energy"):
         gymnasium.make(ID, energy=0)
+
+
+def test_rgb_array_render_vector():
+    from jaxdc.viewer import cell_center
+
+    venv = gymnasium.make_vec(ID, num_envs=2, vectorization_mode="vector_entry_point", history=2,
+                              render_mode="rgb_array")
+    venv.reset(seed=2)
+    frames = venv.render()
+    assert len(frames) == 2 and all(f.dtype == np.uint8 and f.ndim == 3 and f.shape[2] == 3 for f in frames)
+    opp = np.asarray(venv.unwrapped.state.opponent.pos)
+    for i, frame in enumerate(frames):
+        y, x = cell_center(5, *(int(v) for v in opp[i]))
+        r, g, b = frame[y + 12, x].astype(int)  # inside the opponent's red disc (the collector starts in the base)
+        assert r > g + 80 and r > b + 80
+    venv.close()

@@ -18,9 +18,11 @@ seed from gymnasium's ``np_random``.
 
 ``make_dcp`` / ``make_dcp_vector`` are the entry points registered as
 ``"jaxdc/DCP-v0"``, ``make_dcg`` / ``make_dcg_vector`` those of
-``"jaxdc/DCG-v0"`` (see :mod:`jaxdc`). An environment with a
-``render_ansi(state, params)`` method renders with it, others with
-:func:`render_ansi`.
+``"jaxdc/DCG-v0"`` (see :mod:`jaxdc`). ``render_mode="ansi"``: an environment
+with a ``render_ansi(state, params)`` method renders with it, others with
+:func:`render_ansi`. ``render_mode="rgb_array"`` (DCP and DCG): a ``uint8
+[H, W, 3]`` picture by :func:`jaxdc.viewer.render_frame` (risk field, base,
+agent and energy, items, opponent, fog).
 """
 
 from __future__ import annotations
@@ -39,15 +41,22 @@ from gymnasium.vector.utils import batch_space
 
 from jaxdc.core.env import Environment
 
-RENDER_MODES = ("ansi",)
+RENDER_MODES = ("ansi", "rgb_array")
 
 __all__ = ["JaxToGymnasium", "JaxVectorEnv", "make_dcp", "make_dcp_vector", "make_dcg", "make_dcg_vector",
            "render_ansi", "RENDER_MODES"]
 
 
-def _check_render_mode(render_mode):
+def _check_render_mode(render_mode, env=None):
     if render_mode is not None and render_mode not in RENDER_MODES:
         raise ValueError(f"render_mode must be None or one of {list(RENDER_MODES)}, got {render_mode!r}")
+    if render_mode == "rgb_array" and env is not None:
+        from jaxdc.dcg.env import DCG
+        from jaxdc.dcp.env import DCP
+
+        if not isinstance(env, (DCP, DCG)):
+            raise ValueError(f"render_mode='rgb_array' draws DCP and DCG states only, not {type(env).__name__}; "
+                             f"use render_mode='ansi'")
     return render_mode
 
 
@@ -141,8 +150,13 @@ def render_ansi(state, params) -> str:
     return "\n".join(rows) + "\n"
 
 
-def _renderer(env):
-    """The env's own ``render_ansi(state, params)`` where it has one, else the DCP-style :func:`render_ansi`."""
+def _renderer(env, render_mode: str = "ansi"):
+    """``render(state, params)`` for ``render_mode``: :func:`jaxdc.viewer.render_frame` for ``"rgb_array"``;
+    for ``"ansi"`` the env's own ``render_ansi(state, params)`` where it has one, else :func:`render_ansi`."""
+    if render_mode == "rgb_array":
+        from jaxdc.viewer import render_frame
+
+        return lambda state, params: render_frame(env, params, state)
     return getattr(env, "render_ansi", None) or render_ansi
 
 
@@ -179,7 +193,7 @@ class _KeyedReset:
     def _host_state(self, what: str):
         """``(state, params)`` on the host for ``render``; None (with a warning) without a render mode."""
         if self.render_mode is None:
-            gymnasium.logger.warn(f"{what}() called without a render_mode; pass render_mode='ansi'")
+            gymnasium.logger.warn(f"{what}() called without a render_mode; pass render_mode='ansi' or 'rgb_array'")
             return None
         if self._state is None:
             raise RuntimeError(f"call reset() before {what}()")
@@ -192,7 +206,7 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
     Args:
       env: the functional environment.
       params: its ``EnvParams`` (default: ``env.default_params``).
-      render_mode: ``None`` or ``"ansi"``.
+      render_mode: ``None``, ``"ansi"`` (text) or ``"rgb_array"`` (DCP/DCG: ``uint8 [H, W, 3]``).
       outcome_names: names for ``info["outcome"]`` indices (default: the
         env's ``OUTCOMES``, looked up on the env or its module); the index
         stays in ``info["outcome_index"]``.
@@ -205,7 +219,7 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
 
     def __init__(self, env: Environment, params=None, render_mode: str | None = None, outcome_names=None,
                  observation_space: spaces.Space | None = None):
-        self.render_mode = _check_render_mode(render_mode)
+        self.render_mode = _check_render_mode(render_mode, env)
         self.env = env
         self.params = env.default_params if params is None else params
         self.observation_space, self.action_space = _spaces(env, self.params, observation_space)
@@ -243,7 +257,7 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
 
     def render(self):
         host = self._host_state("render")
-        return None if host is None else _renderer(self.env)(*host)
+        return None if host is None else _renderer(self.env, self.render_mode)(*host)
 
 
 class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
@@ -264,7 +278,7 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
                  outcome_names=None, observation_space: spaces.Space | None = None):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
-        self.render_mode = _check_render_mode(render_mode)
+        self.render_mode = _check_render_mode(render_mode, env)
         self.env = env
         self.num_envs = int(num_envs)
         self.params = env.default_params if params is None else params
@@ -325,7 +339,7 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
         if host is None:
             return None
         state, params = host
-        render = _renderer(self.env)
+        render = _renderer(self.env, self.render_mode)
         return tuple(
             render(jax.tree_util.tree_map(lambda x, i=i: x[i], state), params) for i in range(self.num_envs)
         )
