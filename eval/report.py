@@ -6,7 +6,9 @@
 Each table is shown with the command that produced it; the ``Δ/SE`` columns
 give ours minus the thesis in standard errors of the thesis' mean
 (``sd / sqrt(episodes)``), so that a reader can see at a glance which rows
-reproduce.
+reproduce. A table with a learned row (ENN, the linear learner, EQN) also
+shows where its parameters came from and the thesis' incr.% columns (the
+learner's increment over each navigator, % of the navigator's mean) beside ours.
 """
 
 from __future__ import annotations
@@ -66,6 +68,22 @@ def dcp_table(payload: dict) -> str:
             f"| {_pm(th[2], th[3], 2)} | {_pm(s['energy']['mean'], s['energy']['sd'], 2)} "
             f"| {_pm(th[4], th[5], 3)} | {_pm(s['rpe']['mean'], s['rpe']['sd'], 3)} |"
         )
+    learned = payload.get("learned")
+    if learned:
+        how = f", trained by `{learned['command']}`" if learned.get("command") else ""
+        lines += ["", f"Learned row `{learned['net']}`: parameters `{learned['source']}`{how}."]
+    if payload.get("incr"):
+        lines += ["", incr_table(payload["incr"])]
+    return "\n".join(lines)
+
+
+def incr_table(incr: dict) -> str:
+    """The incr.% columns of Tables 4.3-4.10, thesis beside ours (``jaxdc.dcp.tables.incr_percent``)."""
+    lines = ["| learner's incr.% over | reward thesis | reward ours | energy thesis | energy ours | RPE thesis "
+             "| RPE ours |", "|---|---|---|---|---|---|---|"]
+    for name, cols in incr.items():
+        cells = [_f(v, 2) for col in ("reward", "energy", "rpe") for v in cols[col]]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -76,7 +94,7 @@ def build(results_dir: str, notes_path: str | None) -> str:
         raise FileNotFoundError(
             f"no DCP tables in {results_dir}/dcp: run e.g. `python -m eval.dcp --table 4.3` first"
         )
-    parts = [HEADER, "## DCP (chapter 4): heuristic rows of Tables 4.1 and 4.3-4.10", ""]
+    parts = [HEADER, "## DCP (chapter 4): Tables 4.1 and 4.3-4.10, navigators and learners", ""]
     for path in files:
         with open(path) as f:
             parts += [dcp_table(json.load(f)), ""]

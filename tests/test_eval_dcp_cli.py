@@ -140,7 +140,7 @@ def test_cli_risk_map_file_works(tmp_path, capsys):
 
 
 def test_cli_table_4_8_writes_results(tmp_path, capsys):
-    assert cli.main(["--table", "4.8", "--episodes", "300", "--out", str(tmp_path)]) == 0
+    assert cli.main(["--table", "4.8", "--episodes", "300", "--out", str(tmp_path), "--no-learned"]) == 0
     js, md = tmp_path / "table_4.8.json", tmp_path / "table_4.8.md"
     assert js.exists() and md.exists()
     data = json.loads(js.read_text())
@@ -149,6 +149,30 @@ def test_cli_table_4_8_writes_results(tmp_path, capsys):
     assert data["thesis"]["safe_neither"][0] == 0.55
     assert all(v["episodes"] == 300 for v in data["ours"].values())
     assert "safe_neither" in md.read_text()
+    assert data["learned"] is None and data["incr"] == {}
+
+
+def test_cli_table_with_learned_row_and_incr(tmp_path, capsys):
+    from jaxdc import pretrained
+    from jaxdc.dcp import learned as learned_lib
+
+    params = learned_lib.init_params(learned_lib.make_network("linear"), 8, jax.random.PRNGKey(3))
+    ckpt = pretrained.save(tmp_path / "lin", params, {"net": "linear", "problem": "dcp", "grid_size": 8,
+                                                      "total_reward": 30, "risk": "high", "energy": [8, 16],
+                                                      "max_steps": 1000, "steps": 0, "seed": 3})
+    assert cli.main(["--table", "4.9", "--episodes", "200", "--out", str(tmp_path), "--checkpoint", ckpt]) == 0
+    data = json.loads((tmp_path / "table_4.9.json").read_text())
+    assert list(data["ours"]) == ["safe_reward", "safe_recharge", "safe_both", "safe_neither", "linear"]
+    assert data["learned"]["net"] == "linear" and data["learned"]["seed"] == 3
+    ours = data["ours"]
+    for nav in ("safe_reward", "safe_neither"):
+        for col in ("reward", "energy", "rpe"):
+            th, got = data["incr"][nav][col]
+            assert got == pytest.approx(100 * (ours["linear"][col]["mean"] - ours[nav][col]["mean"])
+                                        / ours[nav][col]["mean"])
+    # the thesis' own column, e.g. Table 4.9 linear energy over Safe-Neither: printed 88.52 %
+    assert data["incr"]["safe_neither"]["energy"][0] == pytest.approx(88.47, abs=0.1)
+    assert "incr.% over" in (tmp_path / "table_4.9.md").read_text()
 
 
 def test_cli_optimal_policy_matches_its_exact_value(capsys):

@@ -24,3 +24,23 @@ def test_report_without_results_says_what_to_run(tmp_path, capsys):
     assert report.main(["--results", str(tmp_path), "--out", str(tmp_path / "r.md")]) == 2
     assert "python -m eval.dcp --table" in capsys.readouterr().err
     assert not (tmp_path / "r.md").exists()
+
+
+def test_report_shows_learned_row_source_and_incr(tmp_path):
+    d = tmp_path / "results" / "dcp"
+    d.mkdir(parents=True)
+    row = {"reward": {"mean": 13.0, "sd": 7.0}, "energy": {"mean": 24.0, "sd": 17.0},
+           "rpe": {"mean": 0.68, "sd": 0.31}, "episodes": 10000}
+    payload = {"table": "4.3", "caption": "high risk", "command": "python -m eval.dcp --table 4.3",
+               "thesis": {"enn": [13.16, 7.17, 23.87, 16.88, 0.685, 0.314]}, "ours": {"enn": row},
+               "learned": {"net": "enn", "source": "jaxdc/assets/dcp/enn.msgpack",
+                           "command": "python -m train.dcp --net enn"},
+               "incr": {"safe_reward": {"reward": [13.94, 12.5], "energy": [-19.49, None], "rpe": [38.38, 40.0]}}}
+    (d / "table_4.3.json").write_text(json.dumps(payload))
+    out = tmp_path / "results.md"
+    assert report.main(["--results", str(tmp_path / "results"), "--out", str(out), "--notes", "none"]) == 0
+    page = out.read_text()
+    assert "| enn | 13.16 ± 7.17 | 13.00 ± 7.00 | -2.2 |" in page  # (13.00-13.16)/(7.17/100)
+    assert "Learned row `enn`: parameters `jaxdc/assets/dcp/enn.msgpack`, trained by `python -m train.dcp --net enn`" \
+        in page
+    assert "| safe_reward | 13.94 | 12.50 | -19.49 | — | 38.38 | 40.00 |" in page

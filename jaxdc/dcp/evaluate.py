@@ -1,7 +1,8 @@
 """Batched evaluation of DCP policies and the episode statistics of Tables 4.1-4.10.
 
-``evaluate_policy`` plays many episodes of a heuristic policy (by name) or any
-``policy(key, obs, state) -> action`` at once and :func:`summarize` turns the
+:func:`evaluate_heuristic` plays many episodes of a heuristic policy (by name),
+:func:`evaluate_learned` those of a trained network (ENN, EQN, linear, CNN),
+both through the same batched :func:`jaxdc.core.rollout.run_episodes`, and :func:`summarize` turns the
 final states into the thesis' columns: reward, energy and reward per energy
 (RPE), each as mean and SD, plus how the episodes ended.
 """
@@ -60,6 +61,45 @@ def evaluate_heuristic(
     if name not in navigators.POLICIES:
         raise ValueError(f"policy must be one of {navigators.POLICIES}, got {name!r}")
     return _run_heuristic(env, params, key, name, cfg, check_episodes(episodes), path_risk)
+
+
+@functools.partial(jax.jit, static_argnames=("env", "net", "net_name", "episodes", "greedy", "cfg", "path_risk"))
+def _run_learned(env, params, key, net, net_name, net_params, episodes, greedy, epsilon, cfg, path_risk):
+    from jaxdc.dcp.learned import Learned, make_policy
+
+    table = safest_paths(params.risk, path_risk)
+    heuristics = navigators.batched_heuristics(params, table, cfg)
+    learned = Learned(net_name, net, net_params, {}, "")
+    return run_episodes(env, params, make_policy(learned, heuristics, greedy, epsilon), key, episodes)
+
+
+def evaluate_learned(
+    env: DCP,
+    params: EnvParams,
+    learned,
+    key,
+    episodes: int = 10_000,
+    greedy: bool = False,
+    epsilon: float | None = None,
+    cfg: PlannerConfig = PlannerConfig(),
+    path_risk: str = "departed",
+):
+    """Final states of ``episodes`` episodes of a learned network (jitted, batched like the navigators).
+
+    ``learned`` is a :class:`jaxdc.dcp.learned.Learned`. Actor-critics sample
+    from ``pi`` (section 4.5) unless ``greedy``; EQN is epsilon-greedy with
+    ``epsilon`` (default 0.05, section 4.5.5). The network sees the ten ENN
+    heuristics of section 4.4.3 computed on ``params``' risk map. Raises a
+    ``ValueError`` if the network's parameters do not fit ``env``'s grid.
+    """
+    from jaxdc.dcp.learned import EQN_EPSILON, check_params
+
+    epsilon = EQN_EPSILON if epsilon is None else float(epsilon)
+    if not 0.0 <= epsilon <= 1.0:
+        raise ValueError(f"epsilon must be in [0, 1], got {epsilon!r}")
+    net_params = check_params(learned.net_name, learned.net, learned.params, env.grid_size, learned.source)
+    return _run_learned(env, params, key, learned.net, learned.net_name, net_params, check_episodes(episodes),
+                        bool(greedy), jax.numpy.float32(epsilon), cfg, path_risk)
 
 
 def evaluate_optimal(env: DCP, params: EnvParams, key, episodes: int = 10_000):

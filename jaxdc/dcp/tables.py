@@ -3,6 +3,7 @@
 Each :class:`TableSpec` holds the environment setting of one table and the
 thesis' rows, ``{policy: (reward avg, reward sd, energy avg, energy sd, rpe avg, rpe sd)}``
 (Table 4.1 reports reward only; missing values are ``None``).
+:func:`incr_percent` is the tables' "Incr.%" column.
 """
 
 from __future__ import annotations
@@ -26,6 +27,19 @@ class TableSpec:
     @property
     def heuristic_rows(self) -> tuple[str, ...]:
         return tuple(p for p in self.rows if p not in self.learned)
+
+
+def incr_percent(learner: float | None, other: float | None) -> float | None:
+    """The "Incr.%" of Tables 4.3-4.10: the learner's increment over ``other`` as a percentage of ``other``.
+
+    Caption of Table 4.3: "Safe-Reward's reward incr.% is the difference
+    between ENN's reward and Safe-Reward's reward as a percentage of
+    Safe-Reward's", i.e. ``100 (learner - other) / other``. ``None`` when a
+    value is missing, NaN or ``other`` is 0.
+    """
+    if learner is None or other is None or other == 0 or math.isnan(learner) or math.isnan(other):
+        return None
+    return 100.0 * (learner - other) / other
 
 
 _NAV = ("safe_reward", "safe_recharge", "safe_both", "safe_neither")

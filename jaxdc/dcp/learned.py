@@ -1,0 +1,220 @@
+"""Learned DCP policies (sections 4.4.3 and 4.5): load trained parameters and rebuild their setting.
+
+A learned policy comes from one of three places:
+
+* a **shipped** parameter file, ``jaxdc/assets/dcp/<name>.msgpack``
+  (:func:`shipped_name` picks the one trained in a given setting);
+* an **exported** parameter file written by :func:`jaxdc.pretrained.save`;
+* a **run folder** of ``python -m train.dcp`` (its latest orbax checkpoint).
+
+:func:`load` returns a :class:`Learned`: the network, its parameters and the
+setting it was trained in (the metadata), whatever the source. Every source is
+checked: a missing or damaged file, another problem or network, or parameters
+whose shapes do not fit the network on the requested grid raise a
+``ValueError`` that names the problem.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxdc import pretrained
+
+#: Networks that have a learned DCP policy (``enn``, ``linear``, ``cnn``: A2C; ``eqn``: n-step Q).
+NETS = ("enn", "linear", "cnn", "eqn")
+#: The evaluation epsilon of EQN's epsilon-greedy policy (section 4.5.5).
+EQN_EPSILON = 0.05
+#: Settings of the environment a network was trained in, as stored in its metadata.
+SETTING_KEYS = ("grid_size", "total_reward", "risk", "energy", "max_steps")
+#: Defaults of ``python -m train.dcp`` for metadata that predates a key.
+DEFAULT_SETTING = {"grid_size": 8, "total_reward": 30, "risk": "high", "energy": [8.0, 16.0], "max_steps": 1000}
+#: Environment options a network was trained with (``jaxdc.dcp.env.DCP``'s defaults when absent).
+ENV_OPTION_KEYS = ("start", "items_on_base", "idle_terminates", "item_order")
+
+
+@dataclasses.dataclass(frozen=True)
+class Learned:
+    """A trained network with its parameters and the metadata of how it was trained."""
+
+    net_name: str
+    net: Any  # a flax module (jaxdc.nets)
+    params: Any
+    metadata: dict
+    source: str
+
+    def setting(self) -> dict:
+        """The environment setting of training: ``grid_size, total_reward, risk, energy, max_steps``."""
+        return {k: self.metadata.get(k, DEFAULT_SETTING[k]) for k in SETTING_KEYS}
+
+    def env_options(self) -> dict:
+        """The ``DCP(...)`` options of training that change the dynamics (defaults where not recorded)."""
+        return {k: self.metadata["env"][k] for k in ENV_OPTION_KEYS if k in self.metadata.get("env", {})}
+
+
+def make_network(net_name: str):
+    """The flax module of ``net_name`` (ENN Fig. 4.3, EQN Fig. 4.4, linear learner Table 4.9, CNN)."""
+    from jaxdc.nets import EQN, make_net
+
+    if net_name not in NETS:
+        raise ValueError(f"net must be one of {NETS}, got {net_name!r}")
+    return EQN() if net_name == "eqn" else make_net(net_name)
+
+
+def init_params(net, grid_size: int, key=None):
+    """Freshly initialised parameters of ``net`` for an ``grid_size x grid_size`` grid (shapes only matter)."""
+    obs = jnp.zeros((1, grid_size, grid_size, 2), jnp.float32)
+    heur = jnp.zeros((1, 10, 9), jnp.float32) if getattr(net, "uses_heuristics", True) else jnp.zeros((1, 1, 9))
+    return net.init(key if key is not None else jax.random.PRNGKey(0), obs, heur)
+
+
+def check_params(net_name: str, net, params, grid_size: int, source: str):
+    """Raise a ``ValueError`` unless ``params`` has exactly the structure and shapes of ``net`` on ``grid_size``."""
+    want = jax.tree_util.tree_flatten_with_path(init_params(net, grid_size))[0]
+    got = jax.tree_util.tree_flatten_with_path(params)[0]
+    want_d = {jax.tree_util.keystr(k): np.shape(v) for k, v in want}
+    got_d = {jax.tree_util.keystr(k): np.shape(v) for k, v in got}
+    if want_d.keys() != got_d.keys():
+        raise ValueError(f"{source}: the parameters are not those of a {net_name} network "
+                         f"(missing {sorted(set(want_d) - set(got_d))[:3]}, "
+                         f"unexpected {sorted(set(got_d) - set(want_d))[:3]})")
+    for k, shape in want_d.items():
+        if got_d[k] != shape:
+            raise ValueError(f"{source}: {net_name} parameter {k} has shape {got_d[k]}, expected {shape} for a "
+                             f"{grid_size}x{grid_size} grid (was it trained on another grid size?)")
+    return jax.tree_util.tree_map(lambda x: jnp.asarray(x, jnp.float32), params)
+
+
+def _check_expected(meta: dict, source: str, net: str | None, grid_size: int | None):
+    if net is not None and meta.get("net") != net:
+        raise ValueError(f"{source} holds a {meta.get('net')!r} network, but --policy asks for {net!r}")
+    have = meta.get("grid_size", DEFAULT_SETTING["grid_size"])
+    if grid_size is not None and have != grid_size:
+        raise ValueError(f"{source} was trained on a {have}x{have} grid; it cannot play a "
+                         f"{grid_size}x{grid_size} grid (grid_size={grid_size})")
+
+
+def load(path, net: str | None = None, grid_size: int | None = None) -> Learned:
+    """Load a learned policy from a parameter file (``.msgpack``) or a ``train.dcp`` run folder.
+
+    ``net`` and ``grid_size``, when given, must match the stored metadata
+    (else a ``ValueError`` names both values); the parameters must have the
+    shapes of that network on that grid.
+    """
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        return _load_run(path, net, grid_size)
+    blob = path if path.endswith(".msgpack") else path + ".msgpack"
+    if not os.path.isfile(blob):
+        raise ValueError(f"checkpoint {path!r} not found: expected a train.dcp run folder or a .msgpack "
+                         "parameter file (jaxdc.pretrained)")
+    meta = pretrained.read_metadata(blob)
+    if meta.get("problem") != "dcp":
+        raise ValueError(f"parameter file {blob} is for problem {meta.get('problem')!r}, not 'dcp'")
+    _check_expected(meta, blob, net, grid_size)
+    name = meta.get("net")
+    module = make_network(name)
+    params, meta = pretrained.load(blob, problem="dcp", net=name)
+    params = check_params(name, module, params, meta.get("grid_size", DEFAULT_SETTING["grid_size"]), blob)
+    return Learned(name, module, params, meta, blob)
+
+
+def _load_run(folder: str, net: str | None, grid_size: int | None) -> Learned:
+    """The latest checkpoint of a ``train.dcp`` run folder (or of its ``checkpoints/`` subfolder)."""
+    from jaxdc import checkpoint
+
+    ckpt = os.path.join(folder, "checkpoints")
+    if not os.path.isdir(ckpt):
+        ckpt = folder
+    if not checkpoint.steps(ckpt):
+        raise ValueError(f"checkpoint {folder!r}: no orbax checkpoint found (expected a train.dcp run folder "
+                         "with checkpoints/)")
+    meta = checkpoint.read_metadata(ckpt)
+    name = meta.get("net")
+    if name not in NETS:
+        raise ValueError(f"checkpoint {folder!r}: metadata names net {name!r}, not one of {NETS}")
+    _check_expected(meta, f"checkpoint {folder!r}", net, grid_size)
+    module = make_network(name)
+    target = _train_state(name, module, meta)
+    state, meta = checkpoint.restore(ckpt, target, {"net": name})
+    params = check_params(name, module, state.params, meta.get("grid_size", 8), f"checkpoint {folder!r}")
+    return Learned(name, module, params, dict(meta, problem="dcp"), ckpt)
+
+
+def _train_state(name: str, module, meta: dict):
+    """An initial training state with the structure of the checkpointed one (restore target)."""
+    from jaxdc.agents import a2c, nstep_q
+    from jaxdc.core.paths import safest_paths
+    from jaxdc.dcp import navigators
+    from jaxdc.dcp.env import DCP
+
+    s = {k: meta.get(k, DEFAULT_SETTING[k]) for k in SETTING_KEYS}
+    env = DCP(grid_size=s["grid_size"], total_reward=s["total_reward"])
+    env_params = env.make_params(s["risk"], tuple(s["energy"]), s["max_steps"])
+    cls = nstep_q.QConfig if name == "eqn" else a2c.A2CConfig
+    fields = {f.name for f in dataclasses.fields(cls)}
+    algo = {k: v for k, v in meta.get("algorithm", {}).items() if k in fields}
+    try:
+        config = cls(**algo)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"checkpoint metadata has an unusable algorithm configuration: {e}") from None
+    heur = navigators.batched_heuristics(env_params, safest_paths(env_params.risk))
+    trainer = (nstep_q if name == "eqn" else a2c).make_train(config, env, env_params, module, heur)
+    return trainer.init(jax.random.PRNGKey(0))
+
+
+def shipped_name(net: str, risk: str = "high", energy=(8.0, 16.0)) -> str:
+    """Name of the shipped parameter file of ``net`` trained with ``risk`` and ``energy`` (section 4.5).
+
+    The ENN of Table 4.3 (high risk, energy 8/16) is ``"enn"``; the ENN of
+    Table 4.7 (energy 16/32) is ``"enn_energy16_32"``; the linear learner and
+    EQN (Tables 4.9, 4.10, setting of Table 4.3) are ``"linear"`` and ``"eqn"``.
+    Other settings are named ``"<net>_<risk>"`` and ``"<net>_energy<I>_<M>"``.
+    """
+    name = net
+    if risk != "high":
+        name += f"_{risk}"
+    init_e, max_e = (float(e) for e in energy)
+    if (init_e, max_e) != (8.0, 16.0):
+        name += f"_energy{init_e:g}_{max_e:g}"
+    return name
+
+
+def shipped(net: str, risk: str = "high", energy=(8.0, 16.0), grid_size: int | None = None) -> Learned:
+    """The shipped learned policy of ``net`` trained in the given risk and energy setting (see :func:`shipped_name`)."""
+    name = shipped_name(net, risk, energy)
+    try:
+        path = pretrained.shipped("dcp", name)
+    except ValueError as e:
+        raise ValueError(f"no shipped {net} trained with risk={risk!r}, energy={tuple(energy)} ({e}); "
+                         "train one with `python -m train.dcp` and pass --checkpoint RUN_FOLDER") from None
+    return load(path, net=net, grid_size=grid_size)
+
+
+def make_policy(learned: Learned, heuristics=None, greedy: bool = False, epsilon: float = EQN_EPSILON):
+    """``policy(key, obs, state)`` of a learned network for :func:`jaxdc.core.rollout.run_episodes`.
+
+    Actor-critics sample from ``pi`` (section 4.5: "the output of ENN is used
+    as a stochastic policy"), or take its argmax if ``greedy``. EQN is
+    epsilon-greedy with ``epsilon`` (section 4.5.5: 0.05; 0 if ``greedy``).
+    """
+    from jaxdc.agents import a2c, nstep_q
+
+    if learned.net_name == "eqn":
+        return nstep_q.make_q_policy(learned.net, learned.params, heuristics, epsilon=0.0 if greedy else epsilon)
+    return a2c.make_policy(learned.net, learned.params, heuristics, greedy=greedy)
+
+
+def describe(learned: Learned) -> str:
+    """One line: network, training setting and source."""
+    s = learned.setting()
+    return (f"{learned.net_name} trained on {s['grid_size']}x{s['grid_size']}, risk {s['risk']}, "
+            f"total reward {s['total_reward']}, energy {s['energy'][0]:g}/{s['energy'][1]:g}, "
+            f"{learned.metadata.get('steps', '?')} steps, seed {learned.metadata.get('seed', '?')} "
+            f"({learned.source})")
+

@@ -1,0 +1,134 @@
+"""Regenerate the shipped DCP parameters (``jaxdc/assets/dcp``): train with ``train.dcp``, then export.
+
+    python -m train.ship                      # all of them (4 runs of 1M steps, 2 at a time)
+    python -m train.ship --only enn eqn       # some of them
+    python -m train.ship --export-only        # re-export from finished run folders
+
+Each shipped network is trained with the defaults of ``python -m train.dcp``
+(the thesis' hyper-parameters, section 4.5), seed 0, 1M steps, in the
+setting of the table it fills (section 4.5: the ENN of Table 4.3 also plays
+Tables 4.6 and 4.8; Table 4.7 has its own ENN; the linear learner and EQN
+are trained in the setting of Table 4.3). The run folders are
+``--runs/<name>`` (a finished or interrupted run is resumed, so rerunning is
+cheap); the last checkpoint is exported with :func:`jaxdc.pretrained.save`,
+its metadata holding the network, the problem, every environment setting, the
+steps, the seed and the exact ``train.dcp`` command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import subprocess
+import sys
+import time
+
+#: name of the shipped file -> (the tables it fills, train.dcp arguments of its setting)
+SHIPPED = {
+    "enn": ("4.3, 4.6, 4.8", ["--net", "enn", "--risk", "high", "--energy", "8", "16"]),
+    "enn_energy16_32": ("4.7", ["--net", "enn", "--risk", "high", "--energy", "16", "32"]),
+    "linear": ("4.9", ["--net", "linear", "--risk", "high", "--energy", "8", "16"]),
+    "eqn": ("4.10", ["--net", "eqn", "--risk", "high", "--energy", "8", "16"]),
+}
+#: ENNs of Tables 4.4 and 4.5 (trained on their own risk map); not shipped by default, ``--only`` trains them.
+EXTRA = {
+    "enn_medium": ("4.4", ["--net", "enn", "--risk", "medium", "--energy", "8", "16"]),
+    "enn_low": ("4.5", ["--net", "enn", "--risk", "low", "--energy", "8", "16"]),
+}
+ALL = {**SHIPPED, **EXTRA}
+
+
+def train_command(name: str, steps: int, seed: int, runs: str) -> list[str]:
+    """The ``python -m train.dcp`` command line that trains shipped network ``name``."""
+    return ["python", "-m", "train.dcp", *ALL[name][1], "--steps", str(steps), "--seed", str(seed),
+            "--out", os.path.join(runs, name), "--no-progress"]
+
+
+def _last_row(run: str) -> dict:
+    path = os.path.join(run, "metrics.csv")
+    if not os.path.exists(path):
+        return {}
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    return rows[-1] if rows else {}
+
+
+def export(name: str, run: str, command: list[str], out: str) -> str:
+    """Export the last checkpoint of ``run`` as ``out/<name>.msgpack`` with its metadata (sections 4.4.3, 4.5)."""
+    from jaxdc import pretrained
+    from jaxdc.dcp import learned as learned_lib
+    from jaxdc.dcp.env import DCP
+
+    learned = learned_lib.load(run)
+    meta = learned.metadata
+    env = DCP(grid_size=meta["grid_size"], total_reward=meta["total_reward"])  # train.dcp's environment
+    last = _last_row(run)
+    metadata = {
+        "net": learned.net_name, "problem": "dcp", **learned.setting(),
+        "env": {"start": env.start, "items_on_base": env.items_on_base, "idle_terminates": env.idle_terminates,
+                "item_order": env.item_order},
+        "steps": int(last.get("env_steps") or meta["algorithm"]["total_steps"]),
+        "seed": meta["seed"], "algorithm": meta["algorithm"], "tables": ALL[name][0],
+        "command": " ".join(command),
+        "train_eval": {k: float(last[k]) for k in ("eval_reward", "eval_energy", "eval_rpe") if last.get(k)},
+    }
+    return pretrained.save(os.path.join(out, name), learned.params, metadata)
+
+
+def main(argv=None) -> int:
+    from jaxdc.pretrained import ASSETS
+
+    p = argparse.ArgumentParser(prog="python -m train.ship", description=__doc__.split("\n")[0])
+    p.add_argument("--only", nargs="+", choices=sorted(ALL), default=None,
+                   help=f"names to regenerate (default: {', '.join(SHIPPED)})")
+    p.add_argument("--steps", type=int, default=1_000_000, help="environment steps per run (thesis: 1M)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--runs", default=os.path.join("runs", "ship"), help="folder of the run folders")
+    p.add_argument("--out", default=os.path.join(ASSETS, "dcp"), help="where the parameter files go")
+    p.add_argument("--jobs", type=int, default=2, help="trainings at a time")
+    p.add_argument("--export-only", action="store_true", help="do not train; export finished runs")
+    args = p.parse_args(argv)
+    if args.steps < 1:
+        p.error(f"--steps must be >= 1, got {args.steps}")
+    if args.jobs < 1:
+        p.error(f"--jobs must be >= 1, got {args.jobs}")
+    names = args.only or list(SHIPPED)
+    commands = {n: train_command(n, args.steps, args.seed, args.runs) for n in names}
+    t0 = time.perf_counter()
+    if not args.export_only:
+        pending, running, failed = list(names), {}, []
+        os.makedirs(args.runs, exist_ok=True)
+        while pending or running:
+            while pending and len(running) < args.jobs:
+                n = pending.pop(0)
+                cmd = [sys.executable] + commands[n][1:]
+                if os.path.isdir(os.path.join(args.runs, n, "checkpoints")):
+                    cmd.append("--resume")
+                log = open(os.path.join(args.runs, f"{n}.log"), "w")
+                print(f"training {n}: {' '.join(commands[n])}", file=sys.stderr)
+                running[n] = (subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT), log)
+            time.sleep(5)
+            for n, (proc, log) in list(running.items()):
+                if proc.poll() is not None:
+                    log.close()
+                    del running[n]
+                    print(f"  {n}: exit {proc.returncode} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
+                    if proc.returncode != 0:
+                        failed.append(n)
+        if failed:
+            print(f"error: training failed for {failed}; see {args.runs}/<name>.log", file=sys.stderr)
+            return 1
+    for n in names:
+        try:
+            path = export(n, os.path.join(args.runs, n), commands[n], args.out)
+        except ValueError as e:
+            print(f"error: {n}: {e}", file=sys.stderr)
+            return 1
+        print(f"exported {path}", file=sys.stderr)
+    print(f"done in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
