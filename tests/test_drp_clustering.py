@@ -135,3 +135,13 @@ def test_nc_tour_cache_gives_the_same_clusters_and_plans(builder):
         direct = cl.evaluate_clusters(builder, D, beta, psi, gg, aa, masks)
         c, p = cl.evaluate_parts(builder, D, beta, psi, gg.astype(np.int32), masks)
         np.testing.assert_allclose(cl._combine(c, p, aa), direct, rtol=1e-5, atol=1e-4)
+
+
+def test_nc_gi_resume_gives_the_same_clusters_as_rebuilding():
+    D, beta, psi = batch([3, 4], rewards="4-6")
+    gidx = np.repeat(np.arange(2), len(ALPHAS))
+    alpha = np.tile(ALPHAS, 2)
+    fast = cl.nc("gi", D, beta, psi, gidx, alpha, resume=True)
+    slow = cl.nc("gi", D, beta, psi, gidx, alpha, resume=False)
+    assert (fast == slow).all()
+    assert any(len(cl.clusters_from_member(m)) < N for m in fast)  # merges happened

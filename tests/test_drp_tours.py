@@ -73,3 +73,61 @@ def test_gi_scores_are_eq_3_8():
 def test_unknown_builder():
     with pytest.raises(ValueError, match="builder must be one of"):
         tours.build_tour("xx", jnp.zeros((2, 2)), jnp.zeros(2), 0.99, jnp.ones(2, bool))
+
+
+_trajectory = jax.jit(tours.gi_trajectory, static_argnums=4)
+_gi_resume = jax.jit(tours._gi_tour)
+
+
+def _resumed(D, beta, union, cycles, first, extra):
+    """GI over ``union`` resumed from the trajectory of the cluster, as NC does it."""
+    d = int(np.min(np.asarray(first)[extra]))
+    cyc = np.asarray(cycles[d])
+    rest = union.copy()
+    rest[cyc] = False
+    return d, [int(v) for v in _gi_resume(D, beta, jnp.float32(0.99), jnp.asarray(rest), jnp.asarray(cyc), d) if v >= 0]
+
+
+def test_gi_resumed_from_trajectory_equals_fresh_build():
+    # GI's score depends on the partial tour only: over C ∪ C', GI follows GI over C until a node of C'
+    # first cuts in (gi_trajectory's `first`), so resuming there gives the same tour as building from scratch.
+    saved = 0
+    for seed in range(6):
+        g = world.generate(seed, n=N, size=40, rewards="1-9", alpha=float(10 * (seed % 4)))
+        D, beta, _ = world.arrays(g)
+        rng = np.random.default_rng(seed)
+        cluster = np.zeros(N + 1, bool)
+        cluster[1 + rng.permutation(N)[: 2 + seed % 3]] = True
+        cycles, first = _trajectory(D, beta, jnp.float32(0.99), jnp.asarray(cluster), N)
+        outside = np.flatnonzero(~cluster[1:]) + 1
+        extras = [[v] for v in outside] + [list(rng.choice(outside, 2, replace=False)), list(outside)]
+        for extra in extras:
+            union = cluster.copy()
+            union[extra] = True
+            want = [int(v) for v in tours.build_tour_jit("gi", D, beta, jnp.float32(0.99), jnp.asarray(union))[0]
+                    if v >= 0]
+            d, got = _resumed(D, beta, union, cycles, first, extra)
+            assert got == want, (seed, extra, d)
+            saved += d
+    assert saved > 0  # the trajectory did skip insertions
+
+
+def test_gi_trajectory_breaks_ties_like_a_fresh_build():
+    # Nodes 1 and 2 mirror each other about the base: equal scores at step 0. A fresh GI over {1, 2} inserts
+    # node 1 first (lowest index), so node 1 must cut into the trajectory of {2} at step 0, while node 2
+    # must not cut into that of {1} (equal score, higher index).
+    g = world.Graph(np.array([50.0, 50.0]), np.array([[40.0, 50.0], [60.0, 50.0], [50.0, 30.0], [50.0, 70.0]]),
+                    np.array([5.0, 5.0, 5.0, 5.0]), 0.99, 20.0)
+    D, beta, _ = world.arrays(g)
+    two = np.array([False, False, True, False, False])
+    _, first = _trajectory(D, beta, jnp.float32(0.99), jnp.asarray(two), 4)
+    assert int(first[1]) == 0
+    one = np.array([False, True, False, False, False])
+    _, first = _trajectory(D, beta, jnp.float32(0.99), jnp.asarray(one), 4)
+    assert int(first[2]) == 1  # ties with node 1 at step 0 but loses on index; then the cluster is done
+    for cluster, extra in ((two, [1]), (one, [2])):
+        cycles, first = _trajectory(D, beta, jnp.float32(0.99), jnp.asarray(cluster), 4)
+        union = cluster.copy()
+        union[extra] = True
+        want = [int(v) for v in tours.build_tour_jit("gi", D, beta, jnp.float32(0.99), jnp.asarray(union))[0] if v >= 0]
+        assert _resumed(D, beta, union, cycles, first, extra)[1] == want

@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdc.drp.tours import BUILDERS, build_tour
+from jaxdc.drp.tours import BUILDERS, build_tour, gi_trajectory
 from jaxdc.drp.world import tour_gain
 
 CLUSTERINGS = ("nc", "pgc")
@@ -42,42 +42,79 @@ def _bucket(size, n):
     return min(k, n)
 
 
-def _chunk(K, count):
-    """Batch width for ``count`` jobs of bucket ``K``: a power of 4 from 64, memory-capped."""
-    big = int(min(8192, max(64, 2 ** 21 // (K * K))))
+def _chunk(area, count):
+    """Batch width for ``count`` jobs whose arrays have ``area`` entries: a power of 4 from 64, memory-capped."""
+    big = int(min(8192, max(64, 2 ** 21 // area)))
     width = 64
     while width < count and width < big:
         width *= 4
     return min(width, big)
 
 
+def _bucketed(sizes, n, run, order=None, area=lambda K: K * K):
+    """Call ``run(K, part, pad)`` for every size bucket ``K`` and chunk of jobs.
+
+    Jobs are grouped by :func:`_bucket` of ``sizes``, sorted by ``order``
+    (default: their size) so that jobs of similar loop length share a
+    ``while_loop``, and cut into chunks of :func:`_chunk` width; ``pad`` is
+    ``part`` padded to that width by repeating its first job, so each
+    (bucket, width) compiles once.
+    """
+    sizes = np.asarray(sizes)
+    order = sizes if order is None else np.asarray(order)
+    buckets = np.array([_bucket(s, n) for s in range(n + 1)])[sizes]
+    for K in np.unique(buckets):
+        sel = np.flatnonzero(buckets == K)
+        sel = sel[np.argsort(order[sel], kind="stable")]
+        big = _chunk(area(int(K)), len(sel))
+        for start in range(0, len(sel), big):
+            part = sel[start:start + big]
+            width = _chunk(area(int(K)), len(part))
+            run(int(K), part, np.concatenate([part, np.full(width - len(part), part[0])]))
+
+
+def _compact(D, beta, g, m, K):
+    """Cluster ``m`` of graph ``g`` compacted to ``K`` slots (members in index order, base first):
+    ``(sub, Ds, bs, ms)`` with ``sub`` the graph index of each slot."""
+    idx = jnp.argsort(~m, stable=True)[:K]
+    valid = jnp.arange(K) < m.sum()
+    sub = jnp.concatenate([jnp.zeros((1,), idx.dtype), idx])
+    Ds = D[g][sub[:, None], sub[None, :]]
+    return sub, Ds, beta[g][sub], jnp.concatenate([jnp.zeros((1,), bool), valid])
+
+
 @partial(jax.jit, static_argnames=("criterion", "K"))
-def _evaluate(criterion, K, D, beta, psi, gidx, alpha, masks):
+def _evaluate(criterion, K, D, beta, psi, gidx, alpha, masks, prefix=None, done=None):
     """Tour rewards of the clusters ``masks [J, n+1]`` (graph ``gidx``, robot value ``alpha``).
 
     Each cluster is compacted to ``K`` slots (members in index order, so ties
-    still go to the lowest node) before ``BuildTour`` runs on it.
+    still go to the lowest node) before ``BuildTour`` runs on it. With
+    ``prefix [J, n+1]`` (partial GI tours in graph indices, base first) and
+    ``done [J]`` (their lengths), GI resumes from them instead of starting empty.
     """
 
-    def one(g, a, m):
-        idx = jnp.argsort(~m, stable=True)[:K]
-        valid = jnp.arange(K) < m.sum()
-        sub = jnp.concatenate([jnp.zeros((1,), idx.dtype), idx])
-        Dg = D[g]
-        Ds = Dg[sub[:, None], sub[None, :]]
-        bs = beta[g][sub].at[0].set(a)
-        ms = jnp.concatenate([jnp.zeros((1,), bool), valid])
-        tour, reward = build_tour(criterion, Ds, bs, psi[g], ms)
+    def one(g, a, m, pre, d):
+        sub, Ds, bs, ms = _compact(D, beta, g, m, K)
+        bs = bs.at[0].set(a)
+        resume = None
+        if pre is not None:
+            rank = jnp.cumsum(m).astype(jnp.int32)  # slot of each member (m[0] is False)
+            inpre = jnp.zeros(m.shape, bool).at[pre].set(True)
+            ms = ms & ~inpre[sub]
+            resume = (rank[pre[: K + 1]], d)
+        tour, reward = build_tour(criterion, Ds, bs, psi[g], ms, resume)
         return reward, jnp.where(tour >= 0, sub[jnp.maximum(tour + 0, 0)], -1)
 
-    return jax.vmap(one)(gidx, alpha, masks)
+    return jax.vmap(one)(gidx, alpha, masks, prefix, done)
 
 
-def evaluate_clusters(criterion, D, beta, psi, gidx, alpha, masks, with_tours=False):
+def evaluate_clusters(criterion, D, beta, psi, gidx, alpha, masks, with_tours=False, resume=None):
     """``R(C)`` for a batch of clusters of any sizes (bucketed by size, chunked, jitted).
 
     ``D [G, n+1, n+1]``, ``beta [G, n+1]``, ``psi [G]``; ``gidx``, ``alpha``: ``[J]``;
-    ``masks``: ``[J, n+1]`` bool. Returns rewards ``[J]`` (and tours ``[J, n]`` of graph indices).
+    ``masks``: ``[J, n+1]`` bool. ``resume = (prefix [J, n+1], done [J])``: GI only,
+    continue each tour from a partial tour (see :func:`_evaluate`). Returns
+    rewards ``[J]`` (and tours ``[J, n]`` of graph indices).
     """
     masks = np.asarray(masks, bool)
     J, n1 = masks.shape
@@ -85,21 +122,47 @@ def evaluate_clusters(criterion, D, beta, psi, gidx, alpha, masks, with_tours=Fa
     rewards = np.zeros(J, np.float32)
     tours = np.full((J, n), -1, np.int32) if with_tours else None
     sizes = masks.sum(1)
-    buckets = np.array([_bucket(s, n) for s in range(n + 1)])[sizes]
-    for K in np.unique(buckets):
-        sel = np.flatnonzero(buckets == K)
-        sel = sel[np.argsort(sizes[sel], kind="stable")]  # similar sizes share a while_loop
-        big = _chunk(int(K), len(sel))
-        for start in range(0, len(sel), big):
-            part = sel[start:start + big]
-            width = _chunk(int(K), len(part))
-            pad = np.concatenate([part, np.full(width - len(part), part[0])])
-            r, t = _evaluate(criterion, int(K), D, beta, psi, jnp.asarray(gidx[pad]),
-                             jnp.asarray(alpha[pad], jnp.float32), jnp.asarray(masks[pad]))
-            rewards[part] = np.asarray(r)[: len(part)]
-            if with_tours:
-                tours[part, : int(K)] = np.asarray(t)[: len(part)]
+
+    def run(K, part, pad):
+        extra = () if resume is None else (jnp.asarray(resume[0][pad]), jnp.asarray(resume[1][pad], jnp.int32))
+        r, t = _evaluate(criterion, K, D, beta, psi, jnp.asarray(gidx[pad]), jnp.asarray(alpha[pad], jnp.float32),
+                         jnp.asarray(masks[pad]), *extra)
+        rewards[part] = np.asarray(r)[: len(part)]
+        if with_tours:
+            tours[part, :K] = np.asarray(t)[: len(part)]
+
+    # Resumed jobs share a while_loop best when they have as many insertions left.
+    _bucketed(sizes, n, run, order=None if resume is None else sizes - np.asarray(resume[1]))
     return (rewards, tours) if with_tours else rewards
+
+
+@partial(jax.jit, static_argnames="K")
+def _trajectories(K, D, beta, psi, gidx, alpha, masks):
+    """:func:`jaxdc.drp.tours.gi_trajectory` of the clusters ``masks [J, n+1]`` (graph ``gidx``, ``alpha``)."""
+
+    def one(g, a, m):
+        return gi_trajectory(D[g], beta[g].at[0].set(a), psi[g], m, K)
+
+    return jax.vmap(one)(gidx, alpha, masks)
+
+
+def gi_trajectories(D, beta, psi, gidx, alpha, masks):
+    """:func:`_trajectories` for a batch of any sizes: ``(cycles [J, Kmax+1, Kmax+1], first [J, n+1])``."""
+    masks = np.asarray(masks, bool)
+    J, n1 = masks.shape
+    sizes = masks.sum(1)
+    kmax = _bucket(sizes.max(), n1 - 1)
+    cycles = np.zeros((J, kmax + 1, kmax + 1), np.int32)
+    first = np.zeros((J, n1), np.int32)
+
+    def run(K, part, pad):
+        c, f = _trajectories(K, D, beta, psi, jnp.asarray(gidx[pad]), jnp.asarray(alpha[pad], jnp.float32),
+                             jnp.asarray(masks[pad]))
+        cycles[part, : K + 1, : K + 1] = np.asarray(c)[: len(part)]
+        first[part] = np.asarray(f)[: len(part)]
+
+    _bucketed(sizes, n1 - 1, run, area=lambda K: K * n1)
+    return cycles, first
 
 
 def _tour_parts(D, psi, tour):
@@ -124,13 +187,8 @@ def _evaluate_parts(criterion, K, D, beta, psi, gidx, masks):
     """
 
     def one(g, m):
-        idx = jnp.argsort(~m, stable=True)[:K]
-        valid = jnp.arange(K) < m.sum()
-        sub = jnp.concatenate([jnp.zeros((1,), idx.dtype), idx])
-        Dg = D[g]
-        Ds = Dg[sub[:, None], sub[None, :]]
-        bs = beta[g][sub].at[0].set(0.0)
-        ms = jnp.concatenate([jnp.zeros((1,), bool), valid])
+        _, Ds, bs, ms = _compact(D, beta, g, m, K)
+        bs = bs.at[0].set(0.0)
         tour, collected = build_tour(criterion, Ds, bs, psi[g], ms)
         return collected, _tour_parts(Ds, psi[g], tour)
 
@@ -144,19 +202,13 @@ def evaluate_parts(criterion, D, beta, psi, gidx, masks):
     n = n1 - 1
     collected = np.zeros(J, np.float32)
     p_return = np.zeros(J, np.float32)
-    sizes = masks.sum(1)
-    buckets = np.array([_bucket(s, n) for s in range(n + 1)])[sizes]
-    for K in np.unique(buckets):
-        sel = np.flatnonzero(buckets == K)
-        sel = sel[np.argsort(sizes[sel], kind="stable")]
-        big = _chunk(int(K), len(sel))
-        for start in range(0, len(sel), big):
-            part = sel[start:start + big]
-            width = _chunk(int(K), len(part))
-            pad = np.concatenate([part, np.full(width - len(part), part[0])])
-            c, p = _evaluate_parts(criterion, int(K), D, beta, psi, jnp.asarray(gidx[pad]), jnp.asarray(masks[pad]))
-            collected[part] = np.asarray(c)[: len(part)]
-            p_return[part] = np.asarray(p)[: len(part)]
+
+    def run(K, part, pad):
+        c, p = _evaluate_parts(criterion, K, D, beta, psi, jnp.asarray(gidx[pad]), jnp.asarray(masks[pad]))
+        collected[part] = np.asarray(c)[: len(part)]
+        p_return[part] = np.asarray(p)[: len(part)]
+
+    _bucketed(masks.sum(1), n, run)
     return collected, p_return
 
 
@@ -200,7 +252,7 @@ class _TourCache:
         return _combine(self.collected[s], self.p_return[s], alpha)
 
 
-def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True):
+def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=True):
     """Algorithm 1 (NC) with ``BuildTour'_criterion`` as evaluator, for many instances at once.
 
     Args:
@@ -213,6 +265,12 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True):
         once and share it across robot values and rounds (the tour does not
         depend on alpha; see :func:`_evaluate_parts`). Same result as
         ``cache=False``. GI's tours depend on alpha, so GI never caches.
+      resume: for GI, after a merge run GI once over the new cluster ``C_a``
+        (:func:`gi_trajectories`) and build each ``C_a ∪ C_k`` by resuming from
+        the partial tour at the step where a node of ``C_k`` first cuts in:
+        GI's scores depend on the partial tour only, so the steps before are
+        the same (:func:`jaxdc.drp.tours.gi_trajectory`). Same clusters as
+        ``resume=False``, which rebuilds every union from scratch.
 
     Returns:
       ``member [I, n+1, n+1]`` bool: ``member[i, s]`` is the cluster in slot ``s``
@@ -290,6 +348,14 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True):
         masks = member[inst_j, a_j] | member[inst_j, ks]
         if tc is not None:
             r = tc.rewards(gidx[inst_j], masks, alpha[inst_j])
+        elif criterion == "gi" and resume:
+            cycles, first = gi_trajectories(D, beta, psi, gidx[act], alpha[act], member[act, a])
+            done = np.where(member[inst_j, ks], first[rows], n1).min(1)
+            done = np.minimum(done, size[inst_j, a_j])
+            prefix = np.zeros((len(rows), n1), np.int32)
+            prefix[:, : cycles.shape[2]] = cycles[rows, done]
+            r = evaluate_clusters(criterion, D, beta, psi, gidx[inst_j], alpha[inst_j], masks,
+                                  resume=(prefix, done))
         else:
             r = evaluate_clusters(criterion, D, beta, psi, gidx[inst_j], alpha[inst_j], masks)
         lo, hi = np.minimum(a_j, ks), np.maximum(a_j, ks)

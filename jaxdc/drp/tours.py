@@ -83,12 +83,30 @@ def gi_scores(P, beta, cycle, m, mask, rows=None):
     return jnp.where(inside[:, None] & mask[None, :], score, -jnp.inf)
 
 
-def _gi_tour(D, beta, psi, mask):
-    """Greedy Insertion (GI, Eq. 3.8): the best node at the best position, cyclic tour."""
+def _gi_insert(cycle, rows, P, u, i, k):
+    """Insert node ``u`` after position ``i`` of ``cycle``; keep ``rows = P[cycle]`` in step."""
+    cycle = jnp.where(k <= i, cycle, jnp.where(k == i + 1, u, jnp.roll(cycle, 1)))
+    rows = jnp.where((k <= i)[:, None], rows, jnp.where((k == i + 1)[:, None], P[u][None, :],
+                                                        jnp.roll(rows, 1, axis=0)))
+    return cycle.astype(jnp.int32), rows
+
+
+def _gi_tour(D, beta, psi, mask, cycle0=None, m0=0):
+    """Greedy Insertion (GI, Eq. 3.8): the best node at the best position, cyclic tour.
+
+    ``cycle0`` (``[K+1]``, base at 0, zeros after position ``m0``) resumes GI from a
+    partial tour of ``m0`` nodes, as if its first ``m0`` insertions had been made
+    here; ``mask`` then holds only the nodes still to insert. GI's score of a
+    (position, node) pair depends on the partial tour only, not on the other
+    unassigned nodes, so a run over ``C`` agrees with a run over a subset of ``C``
+    until the first insertion of a node outside it (used by
+    :func:`jaxdc.drp.clustering.nc` via :func:`gi_trajectory`).
+    """
     n = D.shape[0] - 1
     mask = jnp.asarray(mask, bool).at[0].set(False)
     k = jnp.arange(n + 1)
     P = psi ** D
+    cycle0 = jnp.zeros((n + 1,), jnp.int32) if cycle0 is None else jnp.asarray(cycle0, jnp.int32)
 
     def cond(st):
         mask, _, _, m = st
@@ -99,20 +117,69 @@ def _gi_tour(D, beta, psi, mask):
         score = gi_scores(P, beta, cycle, m, mask, rows)
         best = jnp.argmax(score.T)  # lowest node first, then earliest position
         u, i = best // (n + 1), best % (n + 1)
-        cycle = jnp.where(k <= i, cycle, jnp.where(k == i + 1, u, jnp.roll(cycle, 1)))
-        rows = jnp.where((k <= i)[:, None], rows, jnp.where((k == i + 1)[:, None], P[u][None, :],
-                                                            jnp.roll(rows, 1, axis=0)))
-        return mask.at[u].set(False), cycle.astype(jnp.int32), rows, m + 1
+        cycle, rows = _gi_insert(cycle, rows, P, u, i, k)
+        return mask.at[u].set(False), cycle, rows, m + 1
 
-    init = (mask, jnp.zeros((n + 1,), jnp.int32), jnp.broadcast_to(P[0], (n + 1, n + 1)), jnp.int32(0))
+    init = (mask, cycle0, P[cycle0], jnp.asarray(m0, jnp.int32))
     _, cycle, _, m = jax.lax.while_loop(cond, body, init)
     return jnp.where(k[1:] <= m, cycle[1:], -1)
 
 
-def build_tour(criterion: str, D, beta, psi, mask):
-    """``BuildTour_K`` (Algorithm 2) for ``criterion`` in :data:`BUILDERS`; returns ``(tour, reward)``."""
+def gi_trajectory(D, beta, psi, mask, K):
+    """GI (Eq. 3.8) over the cluster ``mask`` of the full graph, recording where other nodes would cut in.
+
+    ``D [n+1, n+1]``, ``beta [n+1]`` (``beta[0] = alpha``), ``mask [n+1]`` with at
+    most ``K`` nodes. Returns ``(cycles, first)``: ``cycles [K+1, K+1]``, the
+    partial cyclic tour (graph indices, base first, zero-padded) before each
+    step ``m``; ``first [n+1]``, for every node ``v`` outside the cluster the
+    first step at which GI over ``cluster + {v, ...}`` would insert ``v`` rather
+    than the cluster's own choice (higher score, or an equal score and a lower
+    index: the tie rule of :func:`_gi_tour`), and ``|cluster|`` if never. GI over
+    ``cluster ∪ C'`` therefore equals :func:`_gi_tour` resumed from
+    ``cycles[d]`` with ``d = min(first[C'])``.
+    """
+    n1 = D.shape[0]
+    mask = jnp.asarray(mask, bool).at[0].set(False)
+    size = mask.sum().astype(jnp.int32)
+    nodes = jnp.arange(n1)
+    outside = ~mask & (nodes > 0)
+    k = jnp.arange(K + 1)
+    P = psi ** D
+
+    def cond(st):
+        return st[-1] < size
+
+    def body(st):
+        mask, cycle, rows, cycles, first, m = st
+        cycles = cycles.at[m].set(cycle)
+        score = gi_scores(P, beta, cycle, m, jnp.ones((n1,), bool), rows)  # every node, inside positions
+        own = jnp.where(mask[None, :], score, -jnp.inf)
+        best = jnp.argmax(own.T)
+        u, i = best // (K + 1), best % (K + 1)
+        s = own[i, u]
+        bv = score.max(axis=0)
+        cuts = outside & ((bv > s) | ((bv == s) & (nodes < u)))
+        first = jnp.where(cuts & (first > m), m, first)
+        cycle, rows = _gi_insert(cycle, rows, P, u, i, k)
+        return mask.at[u].set(False), cycle, rows, cycles, first, m + 1
+
+    cycle0 = jnp.zeros((K + 1,), jnp.int32)
+    init = (mask, cycle0, P[cycle0], jnp.zeros((K + 1, K + 1), jnp.int32), jnp.full((n1,), n1, jnp.int32),
+            jnp.int32(0))
+    _, cycle, _, cycles, first, m = jax.lax.while_loop(cond, body, init)
+    cycles = cycles.at[jnp.minimum(m, K)].set(cycle)
+    return cycles, jnp.minimum(first, size)
+
+
+def build_tour(criterion: str, D, beta, psi, mask, resume=None):
+    """``BuildTour_K`` (Algorithm 2) for ``criterion`` in :data:`BUILDERS`; returns ``(tour, reward)``.
+
+    ``resume = (cycle0, m0)`` (GI only) continues from a partial tour, see :func:`_gi_tour`.
+    """
+    if resume is not None and criterion != "gi":
+        raise ValueError(f"only the builder 'gi' can resume from a partial tour, got {criterion!r}")
     if criterion == "gi":
-        tour = _gi_tour(D, beta, psi, mask)
+        tour = _gi_tour(D, beta, psi, mask, *(resume or ()))
     elif criterion in APPEND_CRITERIA:
         tour = _append_tour(criterion, D, beta, psi, mask)
     else:
