@@ -136,5 +136,66 @@ def test_benchmark_main_quick(tmp_path, capsys):
     assert "| **total** | 4.00 | 2.000 |" in md and "table43_lt_5s" in md
 
 
+# -- benchmarks/train_throughput.py ----------------------------------------------------------
+def test_train_throughput_quick(tmp_path, capsys):
+    from benchmarks import train_throughput as tt
+
+    result = tt.main(["--json", "--quick", "--envs", "2", "--nets", "cnn", "--layouts", "loop", "--no-sb3",
+                      "--out-dir", str(tmp_path)])
+    out = capsys.readouterr().out.strip()
+    assert json.loads(out) == json.loads(json.dumps(result))  # exactly one JSON object on stdout
+    (row,) = result["rows"]
+    assert (row["impl"], row["layout"], row["num_envs"]) == ("jaxdc cnn", "loop", 2)
+    assert row["env_steps"] == 2 * tt.T_MAX and row["steps_per_s"] > 0 and row["gflops"] > 0
+    assert result["comparisons"] == [] and "sb3" in result
+    assert result["flops"]["cnn_train_per_sample"] == 4 * result["flops"]["cnn_forward_per_sample"]
+    assert json.loads((tmp_path / "train_throughput.json").read_text())["rows"] == result["rows"]
+    md = (tmp_path / "train_throughput.md").read_text()
+    assert md.startswith("`python benchmarks/train_throughput.py --json --quick") and "| jaxdc cnn | loop |" in md
+    assert not list(tmp_path.glob(".tmp-*"))
+
+
+def test_train_throughput_flops_and_ratios():
+    from benchmarks import train_throughput as tt
+
+    # 8x8x2 planes: conv 32 (1,152 weights x 64 cells), conv 16 (4,608 x 64), dense 1,024 x 256, heads 256 x 10.
+    assert tt.flops_per_sample()["forward"] == 2 * (64 * 32 * 18 + 64 * 16 * 288 + 1024 * 256 + 2560)
+    assert 4.7e6 < tt.flops_per_sample()["train"] < 4.8e6  # the issue's "about 4.7 MFLOP per sample"
+
+    def row(impl, threads, rate, layout="-"):
+        return {"impl": impl, "layout": layout, "threads": threads, "num_envs": 16, "compile_s": 10.0,
+                "steps_per_s": rate}
+
+    rows = [row("jaxdc enn", "xla", 6000.0, "loop"), row("jaxdc enn", "xla", 3000.0, "scan"),
+            row("sb3 a2c dummy", "default (2)", 500.0), row("sb3 a2c dummy", "1 (1)", 1000.0),
+            row("sb3 a2c jaxvec", "default (2)", 1500.0), row("sb3 a2c jaxvec", "1 (1)", 4000.0)]
+    (c,) = tt.comparisons(rows)
+    assert c["layout"] == "loop" and c["vs"] == {"dummy/default": 12.0, "dummy/1": 6.0, "jaxvec/default": 4.0,
+                                                 "jaxvec/1": 1.5}
+    assert c["vs_sb3_fastest"] == 1.5 and c["vs_sb3_default"] == 12.0
+    t = tt.targets({"rows": rows, "comparisons": [c]})
+    assert t["enn@16_ge_8x_sb3_default"]["met"] and not t["enn@16_ge_2x_sb3_fastest"]["met"]
+    assert t["enn_1M_steps_le_3min (16 envs)"]["met"]  # 1e6 / 6000 + 10 s compile = 177 s
+
+
+def test_train_throughput_bad_input():
+    from benchmarks import train_throughput as tt
+
+    for argv in (["--envs", "0"], ["--repeats", "0"], ["--cpu-gflops", "-1"], ["--nets", "eqn"]):
+        with pytest.raises(SystemExit):
+            tt.parse_args(argv)
+
+
+def test_train_throughput_sb3_child_jaxvec():
+    """SB3's side on a tiny setting, in this process (the benchmark runs it in a subprocess)."""
+    pytest.importorskip("torch")
+    pytest.importorskip("stable_baselines3")
+    from benchmarks import train_throughput as tt
+
+    r = tt.sb3_child(2, "1", "jaxvec", chunk_steps=1, repeats=1)
+    assert r["impl"] == "sb3 a2c jaxvec" and r["threads"] == "1 (1)" and r["env_steps"] == 2 * tt.T_MAX
+    assert r["steps_per_s"] > 0 and r["env_only_steps_per_s"] > 0 and r["torch_cuda"] is None  # a CPU build
+
+
 if __name__ == "__main__":
     raise SystemExit(pytest.main([__file__, "-q"]))

@@ -1,0 +1,535 @@
+"""Training throughput: jaxdc's A2C (ENN, plain CNN) vs Stable-Baselines3 A2C, env-steps/s, in one run.
+
+Usage::
+
+    python benchmarks/train_throughput.py [--json] [--envs 16 64 256] [--nets enn cnn]
+                                          [--layouts loop scan] [--chunk-steps N] [--repeats R]
+                                          [--no-sb3] [--no-dcg] [--quick]
+
+What is timed, all in one invocation so that the ratios are taken side by side on the
+same (noisy, shared) machine:
+
+* ``jaxdc``: :func:`jaxdc.agents.a2c.make_train` (Algorithm 10, synchronous: ``num_envs``
+  environments x ``t_max = 32`` steps per update, one Adam step) on the DCP of Table 4.3
+  (:func:`benchmarks.env_throughput.make_env`: 8x8, 30 units, high risk, energy (8, 16)),
+  for ENN (Fig. 4.3, the ten heuristics computed every step) and the plain CNN (ENN's body,
+  no heuristics), at each ``--envs``, in both layouts of ``train.dcp --layout``:
+  ``loop`` (a Python loop over the jitted ``update``) and ``scan`` (``run``: the updates
+  inside ``lax.scan``);
+* ``sb3``: Stable-Baselines3 A2C (PyTorch, CPU) on ``gymnasium.make("jaxdc/DCP-v0")``
+  with the same settings, ``make_vec_env`` (``DummyVecEnv``, what a user gets), the same
+  body (conv 3x3 32 -> conv 3x3 16 -> dense 256, ReLU, linear policy and value heads:
+  :class:`SB3ConvBody`), ``n_steps = t_max = 32``, Adam at 1e-4, ``ent_coef`` 0.01,
+  ``vf_coef`` 1. It runs twice in a subprocess each, so that the thread setting takes
+  effect: with torch's default threads, and with ``OMP_NUM_THREADS=1`` plus
+  ``torch.set_num_threads(1)``. The same subprocess also times the ``DummyVecEnv`` alone
+  under random actions (``env_only``), the share of SB3's time spent in the environment;
+* ``dcg omn_conn`` (when :mod:`jaxdc.nets` has it): OMN + CoNN (section 5.4.5) with A2C and
+  the auxiliary cross-entropy on the DCG of section 5.5.1, 16 environments, ``loop``.
+
+Each row: one warm-up (compile; for SB3 the first ``learn``), then the best of ``--repeats``
+chunks of about ``--chunk-steps`` environment steps, in wall time and in the process's CPU time
+(all its threads; on a shared, loaded machine CPU time is the steadier of the two, and the
+load average at the start and the end of the run is recorded). The FLOP ceiling of the plain CNN is
+estimated from its layer sizes (:func:`flops_per_sample`: forward in the rollout, forward and
+backward, about 2x the forward, in the update) and the CPU's FLOP rate, both an assumed one
+(``--cpu-gflops``, the issue's 70) and one measured here (best float32 ``1024 x 1024`` matmul).
+Output: a Markdown table (or, with ``--json``, exactly one JSON object on stdout), also written
+atomically to ``results/benchmarks/train_throughput.{json,md}``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script from anywhere
+    sys.path.insert(0, str(ROOT))
+
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+
+from benchmarks.env_throughput import make_env  # noqa: E402
+from jaxdc.agents import a2c  # noqa: E402
+from jaxdc.core.paths import safest_paths  # noqa: E402
+from jaxdc.dcp import navigators  # noqa: E402
+from jaxdc.io import atomic_write, atomic_write_json  # noqa: E402
+from jaxdc.nets import make_net  # noqa: E402
+
+DEFAULT_ENVS = (16, 64, 256)
+NETS = ("enn", "cnn")
+LAYOUTS = ("loop", "scan")
+THREADS = ("default", "1")
+SB3_VEC_ENVS = ("dummy", "jaxvec")
+T_MAX = 32
+RESULTS_DIR = ROOT / "results" / "benchmarks"
+#: The DCP of the benchmark, for SB3's gymnasium.make (same as ``make_env("dcp")``).
+GYM_KWARGS = {"grid_size": 8, "total_reward": 30, "risk": "high", "energy": (8.0, 16.0), "max_steps": 200}
+#: Targets of the issue (learning issue, "Speed").
+TARGET_ENN_1M_S = 180.0
+TARGET_VS_SB3_FASTEST = 2.0
+TARGET_VS_SB3_DEFAULT = 8.0
+TARGET_DCG_1M_S = 300.0
+
+
+def log(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+# -- the FLOP ceiling ------------------------------------------------------------------------
+def flops_per_sample(grid_size: int = 8, channels: int = 2, num_outputs: int = 10) -> dict:
+    """Multiply-adds x 2 of the plain CNN (section 4.5's body: conv 3x3 32, conv 3x3 16, dense 256;
+    ``num_outputs`` = 9 logits + 1 value) per sample: ``forward``, and ``train`` = one forward in the
+    rollout plus forward and backward (about 2 forwards) in the update = 4 forwards."""
+    cells = grid_size * grid_size
+    fwd = 2 * (cells * 32 * 9 * channels + cells * 16 * 9 * 32 + cells * 16 * 256 + 256 * num_outputs)
+    return {"forward": fwd, "train": 4 * fwd}
+
+
+def measured_gflops(size: int = 1024, repeats: int = 5) -> float:
+    """Best float32 ``size x size`` matmul rate of this CPU under XLA, in GFLOP/s."""
+    a = jnp.ones((size, size), jnp.float32)
+    f = jax.jit(lambda x: x @ x)
+    jax.block_until_ready(f(a))
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        jax.block_until_ready(f(a))
+        best = min(best, time.perf_counter() - t0)
+    return 2 * size**3 / best / 1e9
+
+
+# -- jaxdc -----------------------------------------------------------------------------------
+def make_trainer(net_name: str, num_envs: int, game: str = "dcp", total_steps: int = 1 << 30):
+    """A2C :class:`~jaxdc.agents.a2c.Trainer` of ``net_name`` on the benchmark env (``t_max`` 32).
+
+    ``total_steps`` only sets the learning-rate schedule; it is large so that the timed updates
+    run at a nonzero rate.
+    """
+    env, params = make_env(game)
+    config = a2c.A2CConfig(total_steps=total_steps, num_envs=num_envs, t_max=T_MAX)
+    if game == "dcg":
+        from jaxdc.nets import make_dcg_net
+
+        net = make_dcg_net(net_name, history=env.history)
+        return a2c.make_train(config, env, params, net, aux_target=lambda info: info["opponent_action"])
+    heuristics = navigators.batched_heuristics(params, jax.jit(safest_paths)(params.risk))
+    return a2c.make_train(config, env, params, make_net(net_name), heuristics)
+
+
+def bench_jax(net_name: str, num_envs: int, layout: str, chunk_steps: int, repeats: int, seed: int = 0,
+              game: str = "dcp") -> dict:
+    """env-steps/s of ``layout`` ('loop' or 'scan') training; the first call (compile) is untimed."""
+    trainer = make_trainer(net_name, num_envs, game)
+    batch = trainer.config.batch_size
+    n = max(1, math.ceil(chunk_steps / batch))
+
+    if layout == "loop":
+        def chunk(state):
+            for _ in range(n):
+                state, _ = trainer.update(state)
+            return state
+        warm = trainer.update
+    else:
+        def chunk(state):
+            return trainer.run(state, n)[0]
+        warm = chunk
+
+    state = trainer.init(jax.random.PRNGKey(seed))
+    t0 = time.perf_counter()
+    out = warm(state)
+    state = jax.block_until_ready(out[0] if isinstance(out, tuple) else out)
+    first = time.perf_counter() - t0
+    best, cpu = math.inf, math.inf
+    for _ in range(repeats):
+        t0, c0 = time.perf_counter(), time.process_time()
+        state = jax.block_until_ready(chunk(state))
+        best, cpu = min((best, cpu), (time.perf_counter() - t0, time.process_time() - c0))
+    if layout == "loop":  # the warm-up was one update: its compile time is first minus one update
+        compile_s = max(first - best / n, 0.0)
+    else:
+        compile_s = max(first - best, 0.0)
+    return {"impl": f"jaxdc {net_name}" if game == "dcp" else f"jaxdc dcg {net_name}", "layout": layout,
+            "threads": "xla", "num_envs": num_envs, "env_steps": n * batch, "seconds": best,
+            "compile_s": compile_s, "steps_per_s": n * batch / best, "cpu_s": cpu, "steps_per_cpu_s": n * batch / cpu}
+
+
+# -- Stable-Baselines3 (in a subprocess per thread setting) ----------------------------------
+def sb3_body_class():
+    """The SB3 features extractor ``SB3ConvBody``: section 4.5's body in PyTorch (imports torch)."""
+    import torch
+    from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+
+    class SB3ConvBody(BaseFeaturesExtractor):
+        """``obs [B, N, N, C] -> [B, 256]``: conv 3x3 32 -> conv 3x3 16 (same) -> dense 256, ReLU."""
+
+        def __init__(self, observation_space, features_dim: int = 256):
+            super().__init__(observation_space, features_dim)
+            n, m, c = observation_space.shape
+            self.net = torch.nn.Sequential(
+                torch.nn.Conv2d(c, 32, 3, padding=1), torch.nn.ReLU(),
+                torch.nn.Conv2d(32, 16, 3, padding=1), torch.nn.ReLU(), torch.nn.Flatten(),
+                torch.nn.Linear(16 * n * m, features_dim), torch.nn.ReLU())
+
+        def forward(self, obs):
+            return self.net(obs.permute(0, 3, 1, 2))
+
+    return SB3ConvBody
+
+
+def sb3_jax_vec_env(num_envs: int, seed: int = 0):
+    """An SB3 ``VecEnv`` over :class:`jaxdc.wrappers.gymnasium.JaxVectorEnv`: all ``num_envs`` DCPs in
+    one jitted call per step (SB3 has no adapter for gymnasium's ``VectorEnv``). Same auto-reset
+    contract as SB3's own: the returned observation is the next episode's first, the finished one's
+    last is in ``info["terminal_observation"]``, truncation in ``info["TimeLimit.truncated"]``."""
+    import numpy as np
+    from stable_baselines3.common.vec_env import VecEnv, VecMonitor
+
+    from jaxdc.wrappers.gymnasium import make_dcp_vector
+
+    class SB3JaxVecEnv(VecEnv):
+        def __init__(self):
+            self.venv = make_dcp_vector(num_envs, **GYM_KWARGS)
+            self.render_mode = None
+            super().__init__(num_envs, self.venv.single_observation_space, self.venv.single_action_space)
+            self._seed = seed
+
+        def reset(self):
+            obs, _ = self.venv.reset(seed=self._seed)
+            self._seed = None
+            return obs.copy()  # writable, as torch wants
+
+        def step_async(self, actions):
+            self._actions = np.asarray(actions, dtype=np.int64).reshape(self.num_envs)
+
+        def step_wait(self):
+            obs, reward, term, trunc, info = self.venv.step(self._actions)
+            done = term | trunc
+            infos = [{"TimeLimit.truncated": bool(trunc[i] and not term[i])} for i in range(self.num_envs)]
+            for i in np.flatnonzero(done):
+                infos[i]["terminal_observation"] = info["final_obs"][i]
+            return obs.copy(), reward.astype(np.float32), done, infos
+
+        def close(self):
+            self.venv.close()
+
+        def get_attr(self, attr_name, indices=None):
+            return [getattr(self, attr_name)] * len(self._get_indices(indices))
+
+        def set_attr(self, attr_name, value, indices=None):
+            setattr(self, attr_name, value)
+
+        def env_method(self, method_name, *args, indices=None, **kwargs):
+            raise NotImplementedError(method_name)
+
+        def env_is_wrapped(self, wrapper_class, indices=None):
+            return [False] * len(self._get_indices(indices))
+
+    return VecMonitor(SB3JaxVecEnv())
+
+
+def make_sb3_a2c(num_envs: int, vec_env: str = "dummy", seed: int = 0):
+    """SB3 A2C on the DCP sized and tuned like jaxdc's (see the module docs).
+
+    ``vec_env``: ``"dummy"``, ``make_vec_env("jaxdc/DCP-v0")`` (one jitted env call per env
+    and step, what a user gets), or ``"jaxvec"``, :func:`sb3_jax_vec_env` (one call per step).
+    """
+    import torch
+    from stable_baselines3 import A2C
+    from stable_baselines3.common.env_util import make_vec_env
+
+    import jaxdc  # noqa: F401  (registers the id)
+
+    if vec_env == "jaxvec":
+        venv = sb3_jax_vec_env(num_envs, seed)
+    else:  # render_mode=None: make_vec_env asks for "rgb_array" unless told otherwise
+        venv = make_vec_env("jaxdc/DCP-v0", n_envs=num_envs, seed=seed,
+                            env_kwargs={**GYM_KWARGS, "render_mode": None})
+    policy_kwargs = {"features_extractor_class": sb3_body_class(), "net_arch": [],
+                     "optimizer_class": torch.optim.Adam, "optimizer_kwargs": {"betas": (0.9, 0.999)}}
+    return A2C("MlpPolicy", venv, n_steps=T_MAX, learning_rate=1e-4, gamma=0.99, ent_coef=0.01, vf_coef=1.0,
+               use_rms_prop=False, policy_kwargs=policy_kwargs, seed=seed, device="cpu", verbose=0)
+
+
+def sb3_child(num_envs: int, threads: str, vec_env: str, chunk_steps: int, repeats: int) -> dict:
+    """Time SB3 A2C learning (and its vectorized env alone) in this process."""
+    import numpy as np
+    import stable_baselines3
+    import torch
+
+    if threads == "1":
+        torch.set_num_threads(1)
+    model = make_sb3_a2c(num_envs, vec_env)
+    batch = num_envs * T_MAX
+    n = max(1, math.ceil(chunk_steps / batch)) * batch
+    t0 = time.perf_counter()
+    model.learn(batch)  # warm-up: the first rollout and update
+    first = time.perf_counter() - t0
+    best, cpu = math.inf, math.inf
+    for _ in range(repeats):
+        t0, c0 = time.perf_counter(), time.process_time()
+        model.learn(n, reset_num_timesteps=False)
+        best, cpu = min((best, cpu), (time.perf_counter() - t0, time.process_time() - c0))
+    venv, rng = model.get_env(), np.random.default_rng(0)
+    venv.reset()
+    env_best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(n // num_envs):
+            venv.step(rng.integers(0, 9, num_envs))
+        env_best = min(env_best, time.perf_counter() - t0)
+    return {"impl": f"sb3 a2c {vec_env}", "layout": "-", "threads": f"{threads} ({torch.get_num_threads()})",
+            "num_envs": num_envs, "env_steps": n, "seconds": best, "compile_s": max(first - best * batch / n, 0.0),
+            "steps_per_s": n / best, "cpu_s": cpu, "steps_per_cpu_s": n / cpu, "env_only_steps_per_s": n / env_best,
+            "torch": torch.__version__, "torch_cuda": torch.version.cuda, "sb3": stable_baselines3.__version__}
+
+
+def bench_sb3(num_envs: int, threads: str, vec_env: str, chunk_steps: int, repeats: int) -> dict:
+    """:func:`sb3_child` in a fresh interpreter with the thread setting in its environment."""
+    env = dict(os.environ)
+    for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        env.pop(k, None)
+        if threads == "1":
+            env[k] = "1"
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--_sb3-child", threads, "--sb3-vec-envs", vec_env,
+           "--envs", str(num_envs),
+           "--chunk-steps", str(chunk_steps), "--repeats", str(repeats)]
+    out = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=env)
+    if out.returncode != 0:
+        raise RuntimeError(f"SB3 subprocess failed ({' '.join(cmd)}):\n{out.stderr[-3000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def sb3_available() -> bool:
+    try:
+        import stable_baselines3  # noqa: F401
+        import torch  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+# -- the run ---------------------------------------------------------------------------------
+def run(args) -> dict:
+    load_start = os.getloadavg()[0]
+    repeats = args.repeats
+    rows = []
+    for b in args.envs:
+        for net in args.nets:
+            for layout in args.layouts:
+                row = bench_jax(net, b, layout, args.chunk_steps, repeats)
+                log(f"{row['impl']:>14} {layout:>4} envs={b:<4} {row['steps_per_s']:>10,.0f} steps/s "
+                    f"(compile {row['compile_s']:.1f} s)")
+                rows.append(row)
+        if args.sb3:
+            for vec_env, threads in ((v, t) for v in args.sb3_vec_envs for t in THREADS):
+                row = bench_sb3(b, threads, vec_env, args.sb3_chunk_steps, repeats)
+                log(f"{row['impl']:>14} thr={row['threads']:<11} envs={b:<4} {row['steps_per_s']:>10,.0f} steps/s "
+                    f"(env alone {row['env_only_steps_per_s']:,.0f})")
+                rows.append(row)
+    dcg = None
+    if args.dcg:
+        try:
+            from jaxdc.nets import DCG_NETS
+        except ImportError:
+            DCG_NETS = {}
+        if "omn_conn" in DCG_NETS:
+            dcg = bench_jax("omn_conn", 16, "loop", args.chunk_steps, repeats, game="dcg")
+            dcg["est_1M_s"] = 1e6 / dcg["steps_per_s"] + dcg["compile_s"]
+            log(f"{dcg['impl']:>14} loop envs=16   {dcg['steps_per_s']:>10,.0f} steps/s")
+            rows.append(dcg)
+    flops = flops_per_sample()
+    gflops = measured_gflops()
+    for r in rows:
+        if r["impl"] == "jaxdc cnn" or _is_sb3(r):
+            r["gflops"] = r["steps_per_s"] * flops["train"] / 1e9
+    result = {
+        "benchmark": "train_throughput",
+        "config": {**GYM_KWARGS, "energy": list(GYM_KWARGS["energy"]), "t_max": T_MAX, "repeats": repeats,
+                   "chunk_steps": args.chunk_steps, "sb3_chunk_steps": args.sb3_chunk_steps},
+        "machine": {"jax": jax.__version__, "backend": jax.default_backend(), "cpu_count": os.cpu_count(),
+                    "python": platform.python_version(), "platform": platform.platform(),
+                    "loadavg_1min_start": load_start, "loadavg_1min_end": os.getloadavg()[0]},
+        "rows": rows,
+        "flops": {"cnn_forward_per_sample": flops["forward"], "cnn_train_per_sample": flops["train"],
+                  "assumed_cpu_gflops": args.cpu_gflops, "measured_cpu_gflops": gflops,
+                  "ceiling_assumed_steps_per_s": args.cpu_gflops * 1e9 / flops["train"],
+                  "ceiling_measured_steps_per_s": gflops * 1e9 / flops["train"]},
+    }
+    if not args.sb3:
+        result["sb3"] = "skipped (--no-sb3 or stable-baselines3/torch not installed: pip install -e .[bench])"
+    result["comparisons"] = comparisons(rows)
+    result["targets"] = targets(result)
+    return result
+
+
+def _best(rows, impl, num_envs, threads=None):
+    cands = [r for r in rows if r["impl"] == impl and r["num_envs"] == num_envs
+             and (threads is None or r["threads"].split()[0] == threads)]
+    return max(cands, key=lambda r: r["steps_per_s"]) if cands else None
+
+
+def _is_sb3(row) -> bool:
+    return row["impl"].startswith("sb3 ")
+
+
+def comparisons(rows) -> list[dict]:
+    """Per env count and jaxdc net, its faster layout over each SB3 row of that env count
+    (``vs``: ``"VEC_ENV/THREADS"`` -> ratio), over SB3 as a user gets it (``make_vec_env``,
+    default threads) and over the fastest SB3 row."""
+    out = []
+    for b in sorted({r["num_envs"] for r in rows if _is_sb3(r)}):
+        sb3 = [r for r in rows if _is_sb3(r) and r["num_envs"] == b]
+        fastest = max(sb3, key=lambda r: r["steps_per_s"])
+        default = next((r for r in sb3 if r["impl"] == "sb3 a2c dummy" and r["threads"].startswith("default")),
+                       None)
+        for net in NETS:
+            j = _best(rows, f"jaxdc {net}", b)
+            if j is None:
+                continue
+            c = {"net": net, "num_envs": b, "layout": j["layout"], "steps_per_s": j["steps_per_s"],
+                 "vs": {f"{r['impl'].split()[-1]}/{r['threads'].split()[0]}": j["steps_per_s"] / r["steps_per_s"]
+                        for r in sb3},
+                 "vs_sb3_fastest": j["steps_per_s"] / fastest["steps_per_s"],
+                 "sb3_fastest": f"{fastest['impl']}, threads {fastest['threads']}"}
+            if default is not None:
+                c["vs_sb3_default"] = j["steps_per_s"] / default["steps_per_s"]
+            out.append(c)
+    return out
+
+
+def targets(result: dict) -> dict:
+    rows, out = result["rows"], {}
+    enn16 = _best(rows, "jaxdc enn", 16)
+    if enn16:
+        est = 1e6 / enn16["steps_per_s"] + enn16["compile_s"]
+        out["enn_1M_steps_le_3min (16 envs)"] = {"value": est, "target": TARGET_ENN_1M_S, "met": est <= TARGET_ENN_1M_S}
+    enn = [r for r in rows if r["impl"] == "jaxdc enn"]
+    if enn:
+        r = max(enn, key=lambda r: r["steps_per_s"])
+        est = 1e6 / r["steps_per_s"] + r["compile_s"]
+        out[f"enn_1M_steps_le_3min (best: {r['num_envs']} envs, {r['layout']})"] = {
+            "value": est, "target": TARGET_ENN_1M_S, "met": est <= TARGET_ENN_1M_S}
+    for c in result.get("comparisons", []):
+        key = f"{c['net']}@{c['num_envs']}"
+        out[f"{key}_ge_2x_sb3_fastest"] = {"value": c["vs_sb3_fastest"], "target": TARGET_VS_SB3_FASTEST,
+                                           "met": c["vs_sb3_fastest"] >= TARGET_VS_SB3_FASTEST}
+        if "vs_sb3_default" in c:
+            out[f"{key}_ge_8x_sb3_default"] = {"value": c["vs_sb3_default"], "target": TARGET_VS_SB3_DEFAULT,
+                                               "met": c["vs_sb3_default"] >= TARGET_VS_SB3_DEFAULT}
+    dcg = [r for r in rows if r["impl"] == "jaxdc dcg omn_conn"]
+    if dcg:
+        out["dcg_omn_conn_1M_steps_le_5min"] = {"value": dcg[0]["est_1M_s"], "target": TARGET_DCG_1M_S,
+                                                "met": dcg[0]["est_1M_s"] <= TARGET_DCG_1M_S}
+    return out
+
+
+def markdown(result: dict) -> str:
+    fl = result["flops"]
+    lines = ["| implementation | layout | threads | envs | env-steps/s | 1M steps (min) | compile (s) | "
+             "env-steps per CPU-s | 1M steps (CPU-min) | CNN GFLOP/s |", "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in result["rows"]:
+        extra = f" (env alone {r['env_only_steps_per_s']:,.0f}/s)" if "env_only_steps_per_s" in r else ""
+        gf = f"{r['gflops']:.1f}" if "gflops" in r else "-"
+        lines.append(f"| {r['impl']}{extra} | {r['layout']} | {r['threads']} | {r['num_envs']} | "
+                     f"{r['steps_per_s']:,.0f} | {(1e6 / r['steps_per_s'] + r['compile_s']) / 60:.1f} | "
+                     f"{r['compile_s']:.1f} | {r['steps_per_cpu_s']:,.0f} | {1e6 / r['steps_per_cpu_s'] / 60:.1f} | {gf} |")
+    if result["comparisons"]:
+        keys = list(result["comparisons"][0]["vs"])
+        lines += ["", "Ratios, jaxdc (its faster layout) / SB3 (vec env / torch threads), same run:", "",
+                  "| net | envs | layout | " + " | ".join(f"vs SB3 {k}" for k in keys) + " | vs SB3 fastest |",
+                  "|---|---:|---|" + "---:|" * (len(keys) + 1)]
+        for c in result["comparisons"]:
+            lines.append(f"| {c['net']} | {c['num_envs']} | {c['layout']} | "
+                         + " | ".join(f"{c['vs'][k]:.1f}x" for k in keys) + f" | {c['vs_sb3_fastest']:.1f}x |")
+    elif "sb3" in result:
+        lines += ["", f"SB3: {result['sb3']}"]
+    cnn = [r for r in result["rows"] if r["impl"] == "jaxdc cnn"]
+    lines += ["", f"FLOP ceiling of the plain CNN: {fl['cnn_train_per_sample'] / 1e6:.2f} MFLOP per training sample "
+              f"({fl['cnn_forward_per_sample'] / 1e6:.2f} forward x 4); at the assumed {fl['assumed_cpu_gflops']:.0f} "
+              f"GFLOP/s that is {fl['ceiling_assumed_steps_per_s']:,.0f} steps/s, at the measured "
+              f"{fl['measured_cpu_gflops']:.0f} GFLOP/s (float32 1024^2 matmul) {fl['ceiling_measured_steps_per_s']:,.0f} "
+              "steps/s."]
+    if cnn:
+        best = max(cnn, key=lambda r: r["steps_per_s"])
+        lines.append(f"Best plain CNN: {best['steps_per_s']:,.0f} steps/s ({best['num_envs']} envs, {best['layout']}) "
+                     f"= {best['steps_per_s'] / fl['ceiling_assumed_steps_per_s']:.0%} of the assumed ceiling, "
+                     f"{best['steps_per_s'] / fl['ceiling_measured_steps_per_s']:.0%} of the measured one.")
+    if result["targets"]:
+        lines += ["", "Targets:", ""]
+        for name, t in result["targets"].items():
+            lines.append(f"- {name}: {t['value']:,.2f} (target {t['target']:,}) -> {'met' if t['met'] else 'NOT met'}")
+    m = result["machine"]
+    sb3 = next((r for r in result["rows"] if _is_sb3(r)), None)
+    lib = f"; torch {sb3['torch']} (cuda: {sb3['torch_cuda']}), SB3 {sb3['sb3']}" if sb3 else ""
+    lines += ["", f"jax {m['jax']} on {m['backend']} ({m['cpu_count']} CPUs){lib}, {m['platform']}; "
+              f"load average {m['loadavg_1min_start']:.1f} at the start, {m['loadavg_1min_end']:.1f} at the end"]
+    return "\n".join(lines)
+
+
+def parse_args(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
+    p.add_argument("--envs", type=int, nargs="+", default=list(DEFAULT_ENVS), help="numbers of environments")
+    p.add_argument("--nets", nargs="+", choices=NETS, default=list(NETS))
+    p.add_argument("--layouts", nargs="+", choices=LAYOUTS, default=list(LAYOUTS))
+    p.add_argument("--chunk-steps", type=int, default=65_536, help="env-steps per timed jaxdc chunk")
+    p.add_argument("--sb3-chunk-steps", type=int, default=4096, help="env-steps per timed SB3 chunk (>= 1 update)")
+    p.add_argument("--sb3-vec-envs", nargs="+", choices=SB3_VEC_ENVS, default=list(SB3_VEC_ENVS),
+                   help="SB3's vectorized env: dummy (make_vec_env, per-env calls), jaxvec (one batched call)")
+    p.add_argument("--repeats", type=int, default=2, help="timed chunks per row, best taken")
+    p.add_argument("--cpu-gflops", type=float, default=70.0, help="assumed CPU FLOP rate for the ceiling")
+    p.add_argument("--no-sb3", dest="sb3", action="store_false", help="skip Stable-Baselines3")
+    p.add_argument("--no-dcg", dest="dcg", action="store_false", help="skip the DCG OMN+CoNN row")
+    p.add_argument("--quick", action="store_true",
+                   help="tiny settings for smoke tests: 1 repeat, chunks of one update, no DCG row")
+    p.add_argument("--out-dir", type=Path, default=RESULTS_DIR)
+    p.add_argument("--_sb3-child", dest="sb3_child", choices=THREADS, default=None, help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+    for name in ("envs",):
+        if any(v < 1 for v in getattr(args, name)):
+            p.error(f"--{name} must all be >= 1, got {getattr(args, name)}")
+    for name in ("chunk_steps", "sb3_chunk_steps", "repeats"):
+        if getattr(args, name) < 1:
+            p.error(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
+    if not args.cpu_gflops > 0:
+        p.error(f"--cpu-gflops must be > 0, got {args.cpu_gflops}")
+    if args.quick:
+        args.repeats, args.chunk_steps, args.sb3_chunk_steps, args.dcg = 1, 1, 1, False
+    if args.sb3 and args.sb3_child is None and not sb3_available():
+        log("stable-baselines3/torch not installed (pip install -e .[bench]): skipping the SB3 rows")
+        args.sb3 = False
+    return args
+
+
+def main(argv=None) -> dict:
+    args = parse_args(argv)
+    if args.sb3_child:  # internal: one SB3 row in this (fresh) interpreter
+        row = sb3_child(args.envs[0], args.sb3_child, args.sb3_vec_envs[0], args.sb3_chunk_steps, args.repeats)
+        print(json.dumps(row))
+        return row
+    cmd = "python benchmarks/train_throughput.py " + " ".join(sys.argv[1:] if argv is None else argv)
+    log(f"$ {cmd}")
+    result = run(args)
+    result["command"] = cmd.strip()
+    md = f"`{result['command']}`\n\n" + markdown(result)
+    atomic_write_json(args.out_dir / "train_throughput.json", result)
+    atomic_write(args.out_dir / "train_throughput.md", md + "\n")
+    if args.json:
+        print(json.dumps(result))
+        log(md)
+    else:
+        print(md)
+    return result
+
+
+if __name__ == "__main__":
+    main()
