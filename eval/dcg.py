@@ -307,43 +307,16 @@ def run_experiment(exp, pool, folder, args, progress=print) -> dict:
     return {"results": results, "bounds": bounds, "notes": notes}
 
 
-def _plot(exp, results, bounds, col, path, title):
+def _figure(width):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    groups = list(exp.groups)
-    labels = []
-    for g in groups:
-        labels += [lb for lb in results[g] if lb not in labels]
-    fig, ax = plt.subplots(figsize=(max(5.0, 1.2 * len(labels) * len(groups) ** 0.7 + 1), 3.6))
-    width = 0.8 / max(len(labels), 1)
-    colors = plt.get_cmap("tab10").colors
-    for j, lb in enumerate(labels):
-        xs, ys, es = [], [], []
-        for i, g in enumerate(groups):
-            r = results[g].get(lb)
-            if r is not None:
-                xs.append(i + (j - (len(labels) - 1) / 2) * width)
-                ys.append(r[col]["mean"])
-                es.append(r[col]["sd"])
-        bars = ax.bar(xs, ys, width, yerr=es, capsize=3, label=lb, color=colors[j % 10])
-        ax.bar_label(bars, fmt="%.3f" if col == "rpe" else "%.2f", fontsize=7, padding=2)
-    if col == "reward" and bounds:
-        for i, g in enumerate(groups):
-            if g in bounds:
-                ax.hlines(bounds[g]["total"], i - 0.45, i + 0.45, colors="k", linestyles="--",
-                          label="full-information bound" if i == 0 else None)
-    if exp.group_name:
-        ax.set_xticks(range(len(groups)), [f"{exp.group_name} {_group_key(g)}" for g in groups])
-    else:
-        ax.set_xticks([])
-    ax.set_ylabel("episode reward" if col == "reward" else "reward per energy")
-    ax.set_ylim(bottom=0)
-    ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=7, ncol=min(len(labels) + 1, 3), loc="upper center", bbox_to_anchor=(0.5, -0.08 if
-              exp.group_name else -0.02))
+    return plt, *plt.subplots(figsize=(width, 3.8))
+
+
+def _save(plt, fig, path):
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
@@ -351,18 +324,50 @@ def _plot(exp, results, bounds, col, path, title):
     return atomic_write(path, buf.getvalue())
 
 
+def _plot(exp, results, bounds, col, path, title):
+    """A bar chart like the thesis' (mean with SD error bars, labelled); one bar group per energy/area."""
+    groups = list(exp.groups)
+    labels = []
+    for g in groups:
+        labels += [lb for lb in results[g] if lb not in labels]
+    single = len(groups) == 1
+    plt, fig, ax = _figure(max(5.0, 1.1 * len(labels)) if single else max(6.0, 0.55 * len(labels) * len(groups) + 2))
+    width = 0.7 if single else 0.8 / max(len(labels), 1)
+    colors = plt.get_cmap("tab10").colors
+    fmt = "%.3f" if col == "rpe" else "%.2f"
+    for j, lb in enumerate(labels):
+        xs, ys, es = [], [], []
+        for i, g in enumerate(groups):
+            r = results[g].get(lb)
+            if r is not None:
+                xs.append(j if single else i + (j - (len(labels) - 1) / 2) * width)
+                ys.append(r[col]["mean"])
+                es.append(r[col]["sd"])
+        bars = ax.bar(xs, ys, width, yerr=es, capsize=3, label=lb, color=colors[j % 10])
+        ax.bar_label(bars, fmt=fmt, fontsize=7, padding=2)
+    if col == "reward" and bounds:
+        for i, g in enumerate(groups):
+            if g in bounds:
+                ax.hlines(bounds[g]["total"], i - 0.45, i + 0.45, colors="k", linestyles="--",
+                          label="full-information bound" if i == 0 else None)
+    if single:
+        ax.set_xticks(range(len(labels)), labels, fontsize=8)
+    else:
+        ax.set_xticks(range(len(groups)), [f"{exp.group_name} {_group_key(g)}" for g in groups])
+        ax.legend(fontsize=7, ncol=min(len(labels) + 1, 3))
+    ax.set_ylabel("episode reward" if col == "reward" else "reward per energy")
+    ax.set_ylim(bottom=0)
+    ax.set_title(title, fontsize=9)
+    return _save(plt, fig, path)
+
+
 def _plot_strategies(results, path, title):
     """Per-strategy episode reward of each network (ours; the thesis gives no such chart)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     labels = list(results)
     if not labels:
         return None
     strategies = list(results[labels[0]]["per_strategy"])
-    fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(labels) * len(strategies) ** 0.7 + 1), 3.6))
+    plt, fig, ax = _figure(max(6.0, 0.55 * len(labels) * len(strategies) + 2))
     width = 0.8 / len(labels)
     colors = plt.get_cmap("tab10").colors
     for j, lb in enumerate(labels):
@@ -376,11 +381,7 @@ def _plot_strategies(results, path, title):
     ax.set_ylim(bottom=0)
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=7, ncol=min(len(labels), 3))
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    plt.close(fig)
-    return atomic_write(path, buf.getvalue())
+    return _save(plt, fig, path)
 
 
 def _csv(exp, results) -> str:
@@ -462,14 +463,14 @@ def cmd_figure(argv) -> int:
             images = []
             for fig_no, col in zip(exp.figures, ("reward", "rpe")):
                 path = os.path.join(args.img, f"dcg_fig{fig_no.replace('.', '_')}.png")
-                title = f"Fig. {fig_no} (ours): {'episode reward' if col == 'reward' else 'RPE'}, {exp.caption}"
+                title = f"Fig. {fig_no} (ours): {'episode reward' if col == 'reward' else 'RPE'}\n{exp.caption}"
                 images.append(_plot(exp, data["results"], data["bounds"], col, path, title))
             if name in ("standard", "double_blind", "standard_5m"):
                 path = os.path.join(args.img, f"dcg_{name}_per_strategy.png")
-                p = _plot_strategies(data["results"][None], path, f"Episode reward per opponent strategy, {exp.caption}")
+                p = _plot_strategies(data["results"][None], path, f"Episode reward per opponent strategy (ours)\n{exp.caption}")
                 if p:
                     images.append(p)
-            rel = [os.path.relpath(p, os.path.join("docs")) if not os.path.isabs(args.img) else p for p in images]
+            rel = [os.path.relpath(p, args.out) for p in images]
             payload = {"experiment": name, "figures": list(exp.figures), "caption": exp.caption, "command": command,
                        "episodes": args.episodes, "seed": args.seed, "greedy": args.greedy,
                        "results": {_group_key(g): row for g, row in data["results"].items()},

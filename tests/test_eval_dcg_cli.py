@@ -1,0 +1,149 @@
+"""`python -m eval.dcg`: JSON output, clear errors, determinism, the figure and render subcommands (tiny games)."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import jax
+import pytest
+
+from eval import dcg as cli
+from jaxdc import pretrained
+from jaxdc.dcg.learned import init_params, make_network
+
+EPISODES = "16"  # one value for every evaluation here: the compiled program is shared
+
+
+def _meta(net, **kw):
+    meta = {"net": net, "problem": "dcg", "grid_size": 3, "total_reward": 3,
+            "strategies": ["patrol", "restricted", "with_fog"], "energy": 15.0, "max_steps": 12,
+            "history": 0 if net == "vnn" else 2, "alpha": 0.001 if net == "emnn" else None, "steps": 1_000_000,
+            "seed": 0}
+    meta.update(kw)
+    return meta
+
+
+def _save(folder, name, net, grid=3, **meta):
+    params = init_params(make_network(net, 2), grid, 0 if net == "vnn" else 2, jax.random.PRNGKey(7))
+    return pretrained.save(os.path.join(folder, name + ".msgpack"), params, _meta(net, **meta))
+
+
+@pytest.fixture(scope="module")
+def nets(tmp_path_factory):
+    folder = str(tmp_path_factory.mktemp("nets"))
+    _save(folder, "omn_conn", "omn_conn")
+    return folder
+
+
+def _run(argv, capsys):
+    assert cli.main(argv) == 0
+    return capsys.readouterr()
+
+
+def _error(argv, capsys) -> str:
+    with pytest.raises(SystemExit) as e:
+        cli.main(argv)
+    assert e.value.code == 2
+    return capsys.readouterr().err
+
+
+def test_json_fields_and_types(nets, tmp_path, capsys):
+    out = _run(["--checkpoint", os.path.join(nets, "omn_conn.msgpack"), "--episodes", EPISODES, "--json",
+                "--out", str(tmp_path)], capsys).out
+    r = json.loads(out)  # exactly one JSON object
+    assert out.strip().count("\n") == 0
+    for col in ("reward", "rpe", "energy", "steps"):
+        assert set(r[col]) == {"mean", "sd"} and all(isinstance(v, float) for v in r[col].values())
+    assert r["episodes"] == 16 and r["net"] == "omn_conn"
+    assert isinstance(r["opponent_accuracy"], float) and 0 <= r["opponent_accuracy"] <= 1
+    assert list(r["per_strategy"]) == ["patrol", "restricted", "with_fog"]
+    assert sum(s["episodes"] for s in r["per_strategy"].values()) == 16
+    assert r["setting"]["energy"] == 15.0 and r["setting"]["grid_size"] == 3
+    written = [f for f in os.listdir(tmp_path) if f.endswith(".json")]
+    assert written == ["eval_omn_conn_e15_standard_s0.json"]
+    with open(tmp_path / written[0]) as f:
+        assert json.load(f)["reward"] == r["reward"]
+
+
+def test_same_seed_same_numbers(nets, tmp_path, capsys):
+    argv = ["--checkpoint", os.path.join(nets, "omn_conn.msgpack"), "--episodes", EPISODES, "--json",
+            "--out", str(tmp_path)]
+    a = json.loads(_run(argv, capsys).out)
+    b = json.loads(_run(argv, capsys).out)
+    for r in (a, b):
+        r.pop("seconds")
+    assert a == b
+    c = json.loads(_run(argv + ["--seed", "5"], capsys).out)
+    assert (c["reward"], c["steps"]) != (a["reward"], a["steps"])
+
+
+def test_figure_writes_png_json_and_claims(nets, tmp_path, capsys):
+    out, img = tmp_path / "res", tmp_path / "img"
+    md = _run(["figure", "5.6", "--nets-dir", nets, "--episodes", EPISODES, "--out", str(out), "--img", str(img)],
+              capsys).out
+    assert sorted(os.listdir(img)) == ["dcg_fig5_6.png", "dcg_fig5_7.png", "dcg_standard_per_strategy.png"]
+    assert all((img / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for f in os.listdir(img))
+    with open(out / "figure_standard.json") as f:
+        data = json.load(f)
+    assert list(data["results"]["all"]) == ["OMN+CoNN"]
+    assert data["results"]["all"]["OMN+CoNN"]["episodes"] == 16
+    assert any("over 98%" in c["claim"] for c in data["claims"])
+    assert any(m.startswith("VNN") for m in data["missing"])  # says which networks are missing
+    assert (out / "figure_standard.csv").read_text().startswith("group,network,strategy")
+    assert "| thesis claim | ours | agrees |" in md and "Missing networks" in md
+
+
+def test_render_writes_strip_and_gif(nets, tmp_path, capsys):
+    pytest.importorskip("jaxdc.viewer")
+    text = _run(["render", "--checkpoint", os.path.join(nets, "omn_conn.msgpack"), "--strategy", "patrol",
+                 "--seed", "1", "--greedy", "--max-steps", "4", "--out", str(tmp_path)], capsys).out
+    files = sorted(os.listdir(tmp_path))
+    assert files == ["dcg_omn_conn_patrol_s1_greedy.gif", "dcg_omn_conn_patrol_s1_greedy.png"]
+    assert (tmp_path / files[0]).read_bytes()[:4] == b"GIF8"
+    assert "patrol" in text
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--strategies", "nope"], "unknown strategy 'nope'"),
+    (["--strategies", ""], "must not be empty"),
+    (["--energy", "0"], "--energy must be > 0"),
+    (["--energy", "-3"], "--energy must be > 0"),
+    (["--energy", "lots"], "--energy must be a number"),
+    (["--episodes", "0"], "--episodes must be an integer >= 1"),
+    (["--reward-area", "4"], "reward_area must be between 1 and grid_size (3)"),
+    (["--strategies", "patrol", "--double-blind"], "not allowed with argument"),
+])
+def test_clear_errors_for_bad_settings(nets, capsys, extra, message):
+    err = _error(["--checkpoint", os.path.join(nets, "omn_conn.msgpack"), "--episodes", EPISODES] + extra, capsys)
+    assert message in err
+
+
+def test_clear_errors_for_bad_files(nets, tmp_path, capsys):
+    assert "not found" in _error(["--checkpoint", str(tmp_path / "nothing.msgpack")], capsys)
+    assert "no orbax checkpoint" in _error(["--checkpoint", str(tmp_path)], capsys)
+    assert "no shipped dcg parameters named 'nope'" in _error(["--net", "nope"], capsys)
+    assert "one of the arguments --checkpoint --net is required" in _error([], capsys)
+    # corrupt parameters
+    bad = _save(str(tmp_path), "corrupt", "omn_conn")
+    with open(bad, "wb") as f:
+        f.write(b"\x00not msgpack")
+    assert "corrupt or truncated" in _error(["--checkpoint", bad], capsys)
+    # another network's parameters under this name
+    other = _save(str(tmp_path), "liar", "omn_conn")
+    with open(other[: -len(".msgpack")] + ".json", "w") as f:
+        json.dump(_meta("imnn"), f)
+    assert "not those of a imnn network" in _error(["--checkpoint", other], capsys)
+    # the right network trained on another grid
+    wide = _save(str(tmp_path), "wide", "omn_conn", grid=4)
+    assert "has shape" in _error(["--checkpoint", wide], capsys)
+    # a DCP file
+    dcp = _save(str(tmp_path), "dcp", "omn_conn", problem="dcp")
+    assert "not 'dcg'" in _error(["--checkpoint", dcp], capsys)
+    # render takes one strategy
+    assert "one strategy" in _error(["render", "--checkpoint", os.path.join(nets, "omn_conn.msgpack"),
+                                     "--strategy", "patrol,restricted"], capsys)
+    # figure: an empty folder says how to get networks
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert "no DCG parameter files" in _error(["figure", "5.6", "--nets-dir", str(empty)], capsys)
