@@ -8,6 +8,7 @@ import tempfile
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 import pytest
 
 from jaxdc import checkpoint
@@ -39,6 +40,79 @@ def test_nstep_returns_by_hand():
     np.testing.assert_allclose(np.asarray(got), [[3.25, 1.0], [4.5, 6.0], [5.0, 5.0]])
 
 
+def test_lambda_returns_by_hand_and_lambda_one_is_nstep():
+    gamma, lam = 0.5, 0.5
+    rewards = jnp.array([[1.0, 1.0], [2.0, 1.0], [3.0, 1.0]])
+    terminated = jnp.array([[False, True], [False, False], [False, False]])
+    truncated = jnp.array([[False, False], [False, True], [False, False]])
+    final_values = jnp.array([[0.0, 0.0], [0.0, 10.0], [0.0, 0.0]])
+    values = jnp.array([[2.0, 2.0], [6.0, 2.0], [4.0, 2.0]])
+    last_value = jnp.array([4.0, 8.0])
+    got = nstep_returns(rewards, terminated, truncated, final_values, last_value, gamma, values, lam)
+    # env 0: G2 = 3 + .5*4 = 5; G1 = 2 + .5*(.5*V(s2)=4*.5 + .5*G2) = 2 + .5*(2 + 2.5) = 4.25
+    #        G0 = 1 + .5*(.5*6 + .5*4.25) = 1 + .5*5.125 = 3.5625
+    # env 1: G2 = 1 + .5*8 = 5; truncated at 1: G1 = 1 + .5*10 = 6; terminal at 0: G0 = 1
+    np.testing.assert_allclose(np.asarray(got), [[3.5625, 1.0], [4.25, 6.0], [5.0, 5.0]])
+    full = nstep_returns(rewards, terminated, truncated, final_values, last_value, gamma, values, 1.0)
+    np.testing.assert_array_equal(np.asarray(full), np.asarray(
+        nstep_returns(rewards, terminated, truncated, final_values, last_value, gamma)))
+    with pytest.raises(ValueError, match="values"):
+        nstep_returns(rewards, terminated, truncated, final_values, last_value, gamma, None, 0.9)
+
+
+def test_ppo_clipping_cuts_the_gradient_outside_the_trust_region():
+    """With clip_eps, a sample whose ratio is already beyond 1 + eps (positive advantage) gives no policy gradient."""
+    from jaxdc.agents.a2c import a2c_loss
+
+    net = make_net("linear")
+    obs = jax.random.uniform(jax.random.PRNGKey(0), (6, 4, 4, 2))
+    params = net.init(jax.random.PRNGKey(1), obs, None)
+    actions = jnp.arange(6, dtype=jnp.int32)
+    logp = jax.nn.log_softmax(net.apply(params, obs, None)[0])
+    logp_a = jnp.take_along_axis(logp, actions[:, None], -1)[:, 0]
+    adv = jnp.ones(6)
+    cfg = A2CConfig(total_steps=512, clip_eps=0.2, value_coef=0.0, entropy_coef=0.0)
+
+    def grad_norm(old):
+        g, _ = jax.grad(a2c_loss, has_aux=True)(params, net.apply, obs, None, actions, jnp.zeros(6), cfg, None,
+                                                 old, adv)
+        return float(optax.tree.norm(g))
+
+    assert grad_norm(logp_a - 0.5) == 0.0  # ratio e^0.5 > 1.2: clipped
+    assert grad_norm(logp_a) > 0.0  # ratio 1: inside
+    # unclipped (A2C) with the same advantages has a gradient whatever old_log_probs
+    g, _ = jax.grad(a2c_loss, has_aux=True)(params, net.apply, obs, None, actions, jnp.zeros(6),
+                                            dataclasses.replace(cfg, clip_eps=None), None, logp_a - 0.5, adv)
+    assert float(optax.tree.norm(g)) > 0.0
+
+
+def test_ppo_options_run_and_keep_the_lr_schedule_per_update():
+    cfg = A2CConfig(total_steps=4 * 4 * 8, num_envs=4, t_max=8, lr=1e-3, gae_lambda=0.9, clip_eps=0.2, epochs=2,
+                    minibatches=4, normalize_advantages=True)
+    assert cfg.steps_per_update == 8
+    trainer = make_train(cfg, ENV, PARAMS, make_net("linear"))
+    state = trainer.init(jax.random.PRNGKey(0))
+    s1, m = trainer.update(state)
+    assert np.isfinite(float(m["loss"])) and int(s1.update) == 1
+    # 8 Adam steps in one update; the learning rate of update k is lr * (1 - k / num_updates)
+    from jaxdc.agents.a2c import make_optimizer
+
+    tx = make_optimizer(cfg)
+    grads = jax.tree_util.tree_map(jnp.ones_like, state.params)
+    opt = tx.init(state.params)
+    sizes = []
+    for _ in range(16):
+        upd, opt = tx.update(grads, opt, state.params)
+        sizes.append(float(optax.tree.norm(upd)))
+    assert sizes[0] == pytest.approx(sizes[7], rel=1e-5) and sizes[8] < sizes[7] * 0.8
+    # a different rollout use than A2C: the parameters differ from one plain A2C step
+    plain = make_train(dataclasses.replace(cfg, gae_lambda=1.0, clip_eps=None, epochs=1, minibatches=1,
+                                           normalize_advantages=False), ENV, PARAMS, make_net("linear"))
+    s2, _ = plain.update(plain.init(jax.random.PRNGKey(0)))
+    a, b = jax.tree_util.tree_leaves(s1.params)[0], jax.tree_util.tree_leaves(s2.params)[0]
+    assert not np.allclose(np.asarray(a), np.asarray(b))
+
+
 def test_huber_values():
     x = jnp.array([0.0, 0.5, -1.0, 2.0, -3.0])
     np.testing.assert_allclose(np.asarray(huber(x)), [0.0, 0.125, 0.5, 1.5, 2.5])
@@ -56,7 +130,8 @@ def test_lr_schedule_reaches_zero_at_t_max():
 @pytest.mark.parametrize("change, match", [
     ({"lr": 0.0}, "lr"), ({"lr": -1e-3}, "lr"), ({"total_steps": 0}, "total_steps"),
     ({"num_envs": 0}, "num_envs"), ({"total_steps": 100}, "total_steps"), ({"gamma": 1.5}, "gamma"),
-    ({"entropy_coef": -0.1}, "entropy_coef"),
+    ({"entropy_coef": -0.1}, "entropy_coef"), ({"gae_lambda": 1.5}, "gae_lambda"), ({"clip_eps": 0.0}, "clip_eps"),
+    ({"clip_eps": 1.0}, "clip_eps"), ({"epochs": 0}, "epochs"), ({"minibatches": 3}, "minibatches"),
 ])
 def test_config_validation(change, match):
     with pytest.raises(ValueError, match=match):

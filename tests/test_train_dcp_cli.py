@@ -93,6 +93,12 @@ def test_nan_loss_stops_and_keeps_the_last_good_checkpoint(finished_run, tmp_pat
     (["--lr", "nan"], "--lr must be > 0"),
     (["--steps", "16"], "total_steps (16) must be >= num_envs * t_max (32)"),
     (["--energy", "9", "8"], "exceeds the maximum"),
+    (["--seeds", "0,x"], "--seeds must be comma-separated ints"),
+    (["--seeds", "1,1"], "--seeds must be distinct"),
+    (["--devices", "64"], "--devices 64: JAX sees only"),
+    (["--clip-eps", "1.5"], "--clip-eps must be in (0, 1)"),
+    (["--gae-lambda", "-0.1"], "--gae-lambda must be in [0, 1]"),
+    (["--minibatches", "3"], "minibatches (3) must divide num_envs * t_max (32)"),
 ])
 def test_bad_arguments(capsys, tmp_path, extra, match):
     _fails(capsys, TINY + ["--out", str(tmp_path / "x")] + extra, match)
@@ -125,3 +131,76 @@ def test_eqn_is_wired_to_nstep_q(tmp_path):
     assert isinstance(run.net, EQN) and isinstance(run.config, nstep_q.QConfig)
     assert run.config.target_period == 256 // 32 and run.metadata["net"] == "eqn"
     assert run.metadata["algorithm"]["target_every"] == 256
+
+
+def test_learner_options_reach_the_config_and_faithful_metadata_is_unchanged(tmp_path):
+    argv = TINY + ["--out", str(tmp_path / "ppo"), "--clip-eps", "0.2", "--epochs", "2", "--minibatches", "4",
+                   "--gae-lambda", "0.95", "--normalize-advantages", "--reset-slots", "2"]
+    run = cli.Run(cli.build_parser().parse_args(argv))
+    c = run.config
+    assert (c.clip_eps, c.epochs, c.minibatches, c.gae_lambda, c.normalize_advantages, c.reset_slots) == (
+        0.2, 2, 4, 0.95, True, 2)
+    assert run.metadata["algorithm"]["clip_eps"] == 0.2
+    plain = cli.Run(cli.build_parser().parse_args(TINY + ["--out", str(tmp_path / "plain")]))
+    assert not set(cli.LEARNER_OPTIONS) & set(plain.metadata["algorithm"])  # as before the options existed
+
+
+def _tb_scalars(folder):
+    """Tags and steps of the scalars in the TensorBoard event files under ``folder`` (TFRecord framing)."""
+    import struct
+
+    from tensorboardX.proto import event_pb2
+
+    found = {}
+    for root, _, files in os.walk(folder):
+        for name in files:
+            data = open(os.path.join(root, name), "rb").read()
+            i = 0
+            while i < len(data):
+                (n,) = struct.unpack("<Q", data[i:i + 8])
+                event = event_pb2.Event.FromString(data[i + 12:i + 12 + n])
+                i += 12 + n + 4
+                for v in event.summary.value:
+                    found.setdefault(v.tag, []).append((event.step, v.simple_value))
+    return found
+
+
+def test_seeds_tensorboard_and_resume(finished_run, tmp_path):
+    """--seeds 0,3: one vmapped run; seed 0 equals the single run of seed 0; per-seed CSV and TensorBoard;
+    --resume of the multi-seed run is exact."""
+    pytest.importorskip("tensorboardX")
+    out = str(tmp_path / "seeds")
+    assert cli.main(TINY + ["--out", out, "--seeds", "0,3", "--tensorboard"]) == 0
+    single, multi = _restore(finished_run), _restore_multi(out)
+    for x, y in zip(jax.tree_util.tree_leaves(single.params), jax.tree_util.tree_leaves(multi.params)):
+        np.testing.assert_allclose(np.asarray(x), np.asarray(y)[0], rtol=1e-4, atol=1e-5)
+        assert np.asarray(y).shape[0] == 2
+    assert not np.allclose(*np.asarray(jax.tree_util.tree_leaves(multi.params)[0]))
+    for seed in (0, 3):
+        with open(os.path.join(out, f"metrics-s{seed}.csv")) as f:
+            assert [int(r["env_steps"]) for r in csv.DictReader(f)] == [2048, 4096]
+        tb = _tb_scalars(os.path.join(out, "tb", f"s{seed}"))
+        assert [step for step, _ in tb["eval_reward"]] == [2048, 4096] and "loss" in tb
+    with open(os.path.join(finished_run, "metrics.csv")) as f, open(os.path.join(out, "metrics-s0.csv")) as g:
+        a, b = list(csv.DictReader(f)), list(csv.DictReader(g))
+    np.testing.assert_allclose([float(r["loss"]) for r in a], [float(r["loss"]) for r in b], rtol=1e-3)
+    # resume after the first checkpoint ends where the uninterrupted multi-seed run did
+    killed = str(tmp_path / "killed")
+    shutil.copytree(out, killed)
+    shutil.rmtree(os.path.join(killed, "checkpoints", "128"))
+    assert cli.main(TINY + ["--out", killed, "--seeds", "0,3", "--resume"]) == 0
+    for x, y in zip(jax.tree_util.tree_leaves(multi), jax.tree_util.tree_leaves(_restore_multi(killed))):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+
+
+def _restore_multi(out):
+    run = cli.Run(cli.build_parser().parse_args(TINY + ["--out", out, "--seeds", "0,3"]))
+    state, _ = checkpoint.restore(run.ckpt_dir, run.trainer.init(run._keys()), run.metadata)
+    return state
+
+
+def test_tensorboard_without_tensorboardx_names_the_extra(tmp_path, capsys, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "tensorboardX", None)  # import fails as if not installed
+    _fails(capsys, TINY + ["--out", str(tmp_path / "tb"), "--tensorboard"], "jaxdc[tb]")

@@ -14,6 +14,12 @@ writes into ``--out`` (default ``runs/dcp-NET-RISK-sSEED``):
 ``--resume`` continues from the latest checkpoint and ends with the same
 parameters as an uninterrupted run. A NaN loss stops the run (exit status
 3) before it is checkpointed, so the last checkpoint stays good.
+
+The environment batch is split over all devices (``--devices N``: the first
+N; ``jaxdc.agents.parallel``). ``--seeds 0,1,2`` trains independent runs in
+one vmapped program: one checkpoint holds them all, and each seed gets its
+own ``metrics-sSEED.csv``. ``--tensorboard`` also writes the metrics as
+TensorBoard event files into ``tb/`` (needs the ``tb`` extra: tensorboardX).
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ import jax
 import numpy as np
 
 from jaxdc import checkpoint
-from jaxdc.agents import a2c, nstep_q
+from jaxdc.agents import a2c, nstep_q, parallel
 from jaxdc.agents.a2c import A2CConfig, lr_schedule
 from jaxdc.core import grid
 from jaxdc.core.paths import safest_paths
@@ -80,6 +86,29 @@ def _nonnegative_float(name):
     return parse
 
 
+def _seed_list(text):
+    try:
+        seeds = [int(x) for x in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--seeds must be comma-separated ints, e.g. 0,1,2, got {text!r}") from None
+    if len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(f"--seeds must be distinct, got {text!r}")
+    return seeds
+
+
+def _unit_interval(name, low_open=False):
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+        if not (0 < v < 1 if low_open else 0 <= v <= 1):
+            raise argparse.ArgumentTypeError(f"{name} must be in {'(0, 1)' if low_open else '[0, 1]'}, got {text!r}")
+        return v
+
+    return parse
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m train.dcp", description=__doc__.split("\n")[0])
     p.add_argument("--net", choices=NETS, default="enn",
@@ -93,6 +122,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=_positive(int, "--steps"), default=1_000_000,
                    help="T_max: environment steps in total (the learning rate reaches 0 there)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seeds", type=_seed_list, default=None,
+                   help="several independent runs at once (vmapped), e.g. 0,1,2; replaces --seed")
+    p.add_argument("--devices", type=_positive(int, "--devices"), default=None,
+                   help="devices to split the environment batch over (default: all; --envs must be a multiple)")
     p.add_argument("--envs", type=_positive(int, "--envs"), default=16, help="parallel environments")
     p.add_argument("--t-max", type=_positive(int, "--t-max"), default=32, help="rollout length per update")
     p.add_argument("--lr", type=_positive(float, "--lr"), default=1e-4, help="initial learning rate")
@@ -101,6 +134,17 @@ def build_parser() -> argparse.ArgumentParser:
                    help="entropy bonus weight (default 0.01 as in A3C; 0 for the thesis' two loss terms)")
     p.add_argument("--value-coef", type=_nonnegative_float("--value-coef"), default=A2CConfig.value_coef)
     p.add_argument("--max-grad-norm", type=_positive(float, "--max-grad-norm"), default=None)
+    p.add_argument("--reset-slots", type=_positive(int, "--reset-slots"), default=None,
+                   help="fresh initial states drawn per step (default: one per environment)")
+    g = p.add_argument_group("learner options beside Algorithm 10 (not in the thesis; see docs/learning.md)")
+    g.add_argument("--gae-lambda", type=_unit_interval("--gae-lambda"), default=1.0,
+                   help="lambda-returns / GAE (1: the n-step returns of Algorithm 10)")
+    g.add_argument("--clip-eps", type=_unit_interval("--clip-eps", low_open=True), default=None,
+                   help="PPO clipping of the probability ratio (default: none, plain policy gradient)")
+    g.add_argument("--epochs", type=_positive(int, "--epochs"), default=1, help="passes over each rollout")
+    g.add_argument("--minibatches", type=_positive(int, "--minibatches"), default=1,
+                   help="shuffled minibatches per pass (must divide envs * t-max)")
+    g.add_argument("--normalize-advantages", action="store_true", help="standardize advantages per minibatch")
     p.add_argument("--target-every", type=_positive(int, "--target-every"), default=40_000,
                    help="eqn: environment steps between target-network copies")
     p.add_argument("--eval-epsilon", type=_nonnegative_float("--eval-epsilon"), default=nstep_q.EVAL_EPSILON,
@@ -115,6 +159,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--greedy-eval", action="store_true", help="evaluate the argmax policy instead of sampling")
     p.add_argument("--keep", type=_positive(int, "--keep"), default=3, help="checkpoints to keep")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--tensorboard", action="store_true",
+                   help="also write the metrics as TensorBoard event files into OUT/tb (needs tensorboardX)")
     return p
 
 
@@ -142,39 +188,78 @@ def _write_rows(path: str, rows: list[dict]) -> None:
     atomic_write(path, buf.getvalue())
 
 
+#: Learner options beside Algorithm 10 and their defaults (the faithful learner).
+LEARNER_OPTIONS = {"gae_lambda": 1.0, "clip_eps": None, "epochs": 1, "minibatches": 1, "normalize_advantages": False}
+
+
+def _algorithm_metadata(config) -> dict:
+    """The config as checkpoint metadata; learner options at their defaults are left out, so checkpoints of
+    faithful runs written before the options existed still resume."""
+    return {k: v for k, v in dataclasses.asdict(config).items()
+            if not (k in LEARNER_OPTIONS and v == LEARNER_OPTIONS[k])}
+
+
+def _tensorboard_writer(folder: str):
+    """A tensorboardX ``SummaryWriter`` into ``folder`` (``None``: only check the import), or a clear error
+    naming the extra to install."""
+    try:
+        from tensorboardX import SummaryWriter
+    except ImportError:
+        raise ValueError("--tensorboard needs tensorboardX: pip install 'jaxdc[tb]' (or tensorboardX)") from None
+    return None if folder is None else SummaryWriter(folder)
+
+
 class Run:
-    """One training run of the command line: settings, trainer, evaluation and checkpoints."""
+    """One training command: settings, the (data parallel, maybe multi-seed) trainer, evaluation, checkpoints."""
 
     def __init__(self, args):
         if args.energy[0] > args.energy[1]:
             raise ValueError(f"--energy: initial energy {args.energy[0]} exceeds the maximum {args.energy[1]}")
         self.args = args
-        self.out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{args.seed}")
+        if args.tensorboard:
+            _tensorboard_writer(None)  # fail before any work if tensorboardX is missing
+        self.seeds = args.seeds or [args.seed]
+        self.multi = len(self.seeds) > 1
+        tag = "-".join(map(str, self.seeds))
+        self.out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{tag}")
         self.ckpt_dir = os.path.join(self.out, "checkpoints")
         common = dict(total_steps=args.steps, num_envs=args.envs, t_max=args.t_max, lr=args.lr, gamma=args.gamma,
-                      max_grad_norm=args.max_grad_norm)
+                      max_grad_norm=args.max_grad_norm, reset_slots=args.reset_slots)
         if args.net == "eqn":
             algo, self.net = nstep_q, EQN()
             self.config = nstep_q.QConfig(**common, target_every=args.target_every)
         else:
             algo, self.net = a2c, make_net(args.net)
-            self.config = A2CConfig(**common, entropy_coef=args.entropy, value_coef=args.value_coef)
+            self.config = A2CConfig(**common, entropy_coef=args.entropy, value_coef=args.value_coef,
+                                    gae_lambda=args.gae_lambda, clip_eps=args.clip_eps, epochs=args.epochs,
+                                    minibatches=args.minibatches, normalize_advantages=args.normalize_advantages)
         self.env = dcp_env.DCP(grid_size=args.grid_size, total_reward=args.total_reward)
         self.env_params = self.env.make_params(args.risk, tuple(args.energy), args.max_steps)
         table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
         self.heuristics = navigators.batched_heuristics(self.env_params, table)
-        self.trainer = algo.make_train(self.config, self.env, self.env_params, self.net, self.heuristics)
+        available = len(jax.devices())
+        if args.devices is not None and args.devices > available:
+            raise ValueError(f"--devices {args.devices}: JAX sees only {available} device(s)")
+        devices = args.devices or available
+        if args.envs % devices:
+            raise ValueError(f"--envs ({args.envs}) must be divisible by the number of devices ({devices}); "
+                             "change --envs or pass --devices")
+        self.mesh = parallel.data_mesh(devices)
+        self.trainer = parallel.parallelize(algo.make_train(self.config, self.env, self.env_params, self.net,
+                                                            self.heuristics),
+                                            self.mesh, len(self.seeds) if self.multi else None)
         self.metadata = {
             "format": 1, "net": args.net, "grid_size": args.grid_size, "total_reward": args.total_reward,
-            "risk": args.risk, "energy": list(args.energy), "max_steps": args.max_steps, "seed": args.seed,
-            "algorithm": dataclasses.asdict(self.config),
+            "risk": args.risk, "energy": list(args.energy), "max_steps": args.max_steps,
+            **({"seeds": self.seeds} if self.multi else {"seed": self.seeds[0]}),
+            "algorithm": _algorithm_metadata(self.config),
         }
-        @jax.jit
+
         def evaluate(params, key):
             policy = self.policy(params)
             return run_episodes(self.env, self.env_params, policy, key, args.eval_episodes)
 
-        self._evaluate = evaluate
+        self._evaluate = jax.jit(jax.vmap(evaluate) if self.multi else evaluate)
 
     def policy(self, params):
         """The evaluation policy: sampled from pi (argmax if --greedy-eval); EQN: epsilon-greedy."""
@@ -185,10 +270,14 @@ class Run:
         return a2c.make_policy(self.net, params, self.heuristics, greedy=a.greedy_eval)
 
     # -- state ------------------------------------------------------------------------------
+    def _keys(self, offset: int = 0):
+        keys = [jax.random.PRNGKey(s + offset) for s in self.seeds]
+        return jax.numpy.stack(keys) if self.multi else keys[0]
+
     def initial_state(self):
         a = self.args
         _check_writable(self.out)
-        state = self.trainer.init(jax.random.PRNGKey(a.seed))
+        state = self.trainer.init(self._keys())
         existing = checkpoint.steps(self.ckpt_dir)
         if not a.resume:
             if existing:
@@ -199,30 +288,43 @@ class Run:
         if not existing:
             raise ValueError(f"--resume: no checkpoint found in {self.ckpt_dir}")
         state, _ = checkpoint.restore(self.ckpt_dir, state, self.metadata)
-        return state
+        return parallel.place(state, self.mesh, seed_axis=self.multi)
 
-    # -- one evaluation row -----------------------------------------------------------------
-    def evaluate(self, params, update: int) -> dict:
-        key = jax.random.fold_in(jax.random.PRNGKey(self.args.seed + 1_000_003), update)
-        s = summarize(self._evaluate(params, key))
-        return {"eval_reward": s["reward"]["mean"], "eval_reward_sd": s["reward"]["sd"],
-                "eval_energy": s["energy"]["mean"], "eval_rpe": s["rpe"]["mean"]}
+    # -- one evaluation per seed ------------------------------------------------------------
+    def evaluate(self, params, update: int) -> list[dict]:
+        """Evaluation columns of each seed (keys from the seed and the update: as a single run's)."""
+        keys = jax.vmap(jax.random.fold_in, in_axes=(0, None))(self._keys(1_000_003), update) if self.multi else \
+            jax.random.fold_in(self._keys(1_000_003), update)
+        results = jax.device_get(self._evaluate(params, keys))
+        rows = []
+        for i in range(len(self.seeds)):
+            s = summarize(jax.tree_util.tree_map(lambda x: x[i], results) if self.multi else results)
+            rows.append({"eval_reward": s["reward"]["mean"], "eval_reward_sd": s["reward"]["sd"],
+                         "eval_energy": s["energy"]["mean"], "eval_rpe": s["rpe"]["mean"]})
+        return rows
+
+    def _paths(self):
+        if not self.multi:
+            return [(os.path.join(self.out, "metrics.csv"), os.path.join(self.out, "tb"))]
+        return [(os.path.join(self.out, f"metrics-s{s}.csv"), os.path.join(self.out, "tb", f"s{s}"))
+                for s in self.seeds]
 
     # -- the loop ---------------------------------------------------------------------------
     def train(self) -> dict:
-        """Train to the end (or to a NaN loss); return the last metrics row with ``"status"``."""
+        """Train to the end (or to a NaN loss); return the last metrics row (of the first seed) with ``"status"``."""
         from tqdm import tqdm
 
         a, cfg = self.args, self.config
         state = self.initial_state()
-        update = int(state.update)
-        csv_path = os.path.join(self.out, "metrics.csv")
-        rows = _read_rows(csv_path, update)
+        update = int(np.asarray(state.update).reshape(-1)[0])
+        paths = self._paths()
+        rows = [_read_rows(csv_path, update) for csv_path, _ in paths]
+        writers = [_tensorboard_writer(tb) for _, tb in paths] if a.tensorboard else []
         every = max(1, a.eval_every // cfg.batch_size)
         schedule = lr_schedule(cfg)
         bar = tqdm(total=cfg.num_updates * cfg.batch_size, initial=update * cfg.batch_size, unit="step",
                    unit_scale=True, disable=a.no_progress, dynamic_ncols=True)
-        row = {"status": "done", "updates": update}
+        last = {"status": "done", "updates": update}
         while update < cfg.num_updates:
             n = min(every - update % every, cfg.num_updates - update)
             t0 = time.perf_counter()
@@ -235,22 +337,34 @@ class Run:
                       f"The last good checkpoint is in {self.ckpt_dir}", file=sys.stderr)
                 return {"status": "nan", "updates": update}
             update += n
-            episodes = int(np.sum(metrics["episodes"]))
-            row = {"env_steps": update * cfg.batch_size, "updates": update, "wall_s": round(wall, 3),
-                   "steps_per_s": round(n * cfg.batch_size / wall, 1), "lr": float(schedule(update)),
-                   **{k: float(np.mean(metrics[k])) for k in LOSS_METRICS if k in metrics},
-                   "train_episodes": episodes,
-                   "train_reward": float(np.sum(metrics["episode_reward_sum"]) / max(episodes, 1)),
-                   **self.evaluate(state.params, update)}
-            rows.append(row)
+            evals = self.evaluate(state.params, update)
+            for i, ((csv_path, _), seed_rows) in enumerate(zip(paths, rows)):
+                m = jax.tree_util.tree_map(lambda x: x[i], metrics) if self.multi else metrics
+                episodes = int(np.sum(m["episodes"]))
+                row = {"env_steps": update * cfg.batch_size, "updates": update, "wall_s": round(wall, 3),
+                       "steps_per_s": round(n * cfg.batch_size / wall, 1), "lr": float(schedule(update)),
+                       **{k: float(np.mean(m[k])) for k in LOSS_METRICS if k in m},
+                       "train_episodes": episodes,
+                       "train_reward": float(np.sum(m["episode_reward_sum"]) / max(episodes, 1)), **evals[i]}
+                seed_rows.append(row)
+                if writers:
+                    for k, v in row.items():
+                        if k not in ("env_steps", "updates"):
+                            writers[i].add_scalar(k, v, row["env_steps"])
+                    writers[i].flush()
             checkpoint.save(self.ckpt_dir, update, state, self.metadata, keep=a.keep)
-            _write_rows(csv_path, rows)
-            bar.set_postfix(eval_reward=f"{row['eval_reward']:.2f}")
+            for (csv_path, _), seed_rows in zip(paths, rows):
+                _write_rows(csv_path, seed_rows)
+            last = dict(rows[0][-1], per_seed=[(seed, r[-1]) for seed, r in zip(self.seeds, rows)])
+            bar.set_postfix(eval_reward=" ".join(f"{r[-1]['eval_reward']:.2f}" for r in rows))
         bar.close()
+        for w in writers:
+            w.close()
         self.final_state = state
-        return dict(row, status="done")
+        return dict(last, status="done")
 
     def _updates(self, state, n: int, bar):
+        """``n`` updates; metrics ``[n]`` (``[seeds, n]`` with several seeds)."""
         if self.args.layout == "scan":
             state, metrics = self.trainer.run(state, n)
             bar.update(n * self.config.batch_size)
@@ -260,7 +374,7 @@ class Run:
             state, m = self.trainer.update(state)
             history.append(m)
             bar.update(self.config.batch_size)
-        return state, jax.tree_util.tree_map(lambda *x: np.stack(x), *jax.device_get(history))
+        return state, jax.tree_util.tree_map(lambda *x: np.stack(x, axis=-1), *jax.device_get(history))
 
 
 def main(argv=None) -> int:
@@ -273,9 +387,9 @@ def main(argv=None) -> int:
         parser.error(str(e))
     if result["status"] == "nan":
         return EXIT_NAN
-    if "eval_reward" in result:
-        print(f"done: {result['env_steps']} steps, eval reward {result['eval_reward']:.3f} "
-              f"(energy {result['eval_energy']:.2f}, RPE {result['eval_rpe']:.3f})")
+    for seed, r in result.get("per_seed", []):
+        print(f"done: seed {seed}, {r['env_steps']} steps, eval reward {r['eval_reward']:.3f} "
+              f"(energy {r['eval_energy']:.2f}, RPE {r['eval_rpe']:.3f})")
     return 0
 
 

@@ -17,6 +17,14 @@ The learning rate is annealed linearly from ``lr`` to 0 over ``total_steps``
 environment steps (section 4.5, "linearly annealed to 0 over the course of
 training"); Adam's betas are 0.9 and 0.999.
 
+Options beside that faithful default (all off by default, see
+``docs/learning.md`` for measured settings): ``gae_lambda < 1`` replaces the
+n-step returns by lambda-returns (GAE, Schulman et al. 2016), ``clip_eps``
+turns the policy term into PPO's clipped surrogate (Schulman et al. 2017),
+``epochs`` and ``minibatches`` reuse each rollout for several shuffled
+gradient steps, and ``normalize_advantages`` standardizes the advantages of
+each minibatch.
+
 Everything per step is a pure function of arrays. :func:`make_train` returns
 the pieces: ``init(key) -> TrainState``, a jitted ``update(state)`` (one
 rollout plus one gradient step), a jitted ``run(state, n)`` (``n`` updates in
@@ -71,6 +79,15 @@ class A2CConfig:
         aux_logits)``): section 5.4.4's ``alpha`` of Eq. 5.1 for EMNN; 1.0 for
         OMN + CoNN, whose OMN is trained by that cross-entropy alone (Algorithm
         12). Ignored by a network without such a head.
+      gae_lambda: lambda of the lambda-returns (:func:`nstep_returns`); 1.0 is
+        Algorithm 10's n-step return. Not in the thesis.
+      clip_eps: PPO's clipping of the probability ratio (e.g. 0.2); ``None``
+        is Algorithm 10's policy gradient. Not in the thesis.
+      epochs, minibatches: passes over each rollout, and shuffled minibatches
+        per pass (one Adam step each); 1 and 1 are Algorithm 10's one step.
+        The learning rate still falls linearly per update. Not in the thesis.
+      normalize_advantages: standardize the advantages of each minibatch
+        (mean 0, SD 1). Not in the thesis.
     """
 
     total_steps: int = 1_000_000
@@ -86,9 +103,14 @@ class A2CConfig:
     reset_slots: int | None = None
     unroll: int = 1
     aux_coef: float = 1.0
+    gae_lambda: float = 1.0
+    clip_eps: float | None = None
+    epochs: int = 1
+    minibatches: int = 1
+    normalize_advantages: bool = False
 
     def __post_init__(self):
-        for name in ("total_steps", "num_envs", "t_max", "unroll"):
+        for name in ("total_steps", "num_envs", "t_max", "unroll", "epochs", "minibatches"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"{name} must be an int >= 1, got {v!r}")
@@ -101,6 +123,12 @@ class A2CConfig:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
         if self.max_grad_norm is not None and not self.max_grad_norm > 0:
             raise ValueError(f"max_grad_norm must be > 0 or None, got {self.max_grad_norm!r}")
+        if not 0 <= self.gae_lambda <= 1:
+            raise ValueError(f"gae_lambda must be in [0, 1], got {self.gae_lambda!r}")
+        if self.clip_eps is not None and not 0 < self.clip_eps < 1:
+            raise ValueError(f"clip_eps must be in (0, 1) or None, got {self.clip_eps!r}")
+        if self.batch_size % self.minibatches:
+            raise ValueError(f"minibatches ({self.minibatches}) must divide num_envs * t_max ({self.batch_size})")
         if self.total_steps < self.batch_size:
             raise ValueError(
                 f"total_steps ({self.total_steps}) must be >= num_envs * t_max ({self.batch_size}), "
@@ -110,6 +138,11 @@ class A2CConfig:
     def batch_size(self) -> int:
         """Environment steps per update: ``num_envs * t_max``."""
         return self.num_envs * self.t_max
+
+    @property
+    def steps_per_update(self) -> int:
+        """Adam steps per update: ``epochs * minibatches`` (1 for Algorithm 10)."""
+        return self.epochs * self.minibatches
 
     @property
     def num_updates(self) -> int:
@@ -143,9 +176,21 @@ class Transition(NamedTuple):
     aux_target: jax.Array  # int32 label of the auxiliary head (e.g. the opponent's action o_t), else 0
 
 
+class Batch(NamedTuple):
+    """The flattened ``[t_max * num_envs]`` rollout a gradient step sees; the last two only with the options."""
+
+    obs: jax.Array
+    heuristics: jax.Array
+    action: jax.Array
+    returns: jax.Array
+    aux_target: jax.Array
+    old_log_prob: jax.Array | None  # log pi_old(a|s), for clip_eps
+    advantages: jax.Array | None  # R - V_old(s), fixed before the update
+
+
 # -- the pieces of the loss ---------------------------------------------------------------
-def nstep_returns(rewards, terminated, truncated, final_values, last_value, gamma):
-    """The n-step returns of Algorithm 10 over a rollout of ``[T, B]`` steps.
+def nstep_returns(rewards, terminated, truncated, final_values, last_value, gamma, values=None, lam: float = 1.0):
+    """The n-step returns of Algorithm 10 over a rollout of ``[T, B]`` steps (lambda-returns if ``lam < 1``).
 
     Backwards from ``R_T = V(s_T)`` (``last_value``), ``R_t = r_t + gamma * X``
     where ``X`` is 0 if step ``t`` reached a terminal state (Algorithm 10's
@@ -153,15 +198,28 @@ def nstep_returns(rewards, terminated, truncated, final_values, last_value, gamm
     truncated by the step cap (``final_values``; the state is not terminal, so
     its value bootstraps), and ``R_{t+1}`` otherwise. Hence
     ``R_t = sum_{i<k} gamma^i r_{t+i} + gamma^k V(s_{t+k})`` (section 4.4.3).
+
+    With ``lam < 1`` (an option, not in the thesis) the continuing case is
+    ``X = (1 - lam) V(s_{t+1}) + lam R_{t+1}`` with ``values`` ``[T, B]`` =
+    ``V(s_t)``: the TD(lambda) return, whose difference from ``V(s_t)`` is
+    GAE's advantage (Schulman et al. 2016). ``lam = 1`` is the n-step return.
     """
+    if lam == 1.0:
+        next_values = jnp.zeros_like(rewards)  # unused
+    else:
+        if values is None:
+            raise ValueError(f"lam={lam!r} < 1 needs values=V(s_t) [T, B]")
+        next_values = jnp.concatenate([values[1:], last_value[None]], axis=0)
 
     def back(next_return, step):
-        r, term, trunc, v_final = step
-        bootstrap = jnp.where(term, 0.0, jnp.where(trunc, v_final, next_return))
+        r, term, trunc, v_final, v_next = step
+        cont = next_return if lam == 1.0 else (1.0 - lam) * v_next + lam * next_return
+        bootstrap = jnp.where(term, 0.0, jnp.where(trunc, v_final, cont))
         ret = r + gamma * bootstrap
         return ret, ret
 
-    _, returns = jax.lax.scan(back, last_value, (rewards, terminated, truncated, final_values), reverse=True)
+    _, returns = jax.lax.scan(back, last_value, (rewards, terminated, truncated, final_values, next_values),
+                              reverse=True)
     return returns
 
 
@@ -177,8 +235,9 @@ def lr_schedule(config: A2CConfig):
 
 
 def make_optimizer(config: A2CConfig):
-    """Adam(b1, b2) on :func:`lr_schedule`, with optional global-norm clipping."""
-    adam = optax.adam(lr_schedule(config), b1=config.b1, b2=config.b2)
+    """Adam(b1, b2) on :func:`lr_schedule` (per update, whatever ``steps_per_update``), optional norm clipping."""
+    per_update, k = lr_schedule(config), config.steps_per_update
+    adam = optax.adam(per_update if k == 1 else (lambda count: per_update(count // k)), b1=config.b1, b2=config.b2)
     if config.max_grad_norm is None:
         return adam
     return optax.chain(optax.clip_by_global_norm(config.max_grad_norm), adam)
@@ -192,7 +251,7 @@ def aux_cross_entropy(aux_logits, targets):
 
 
 def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, config: A2CConfig,
-             aux_targets=None):
+             aux_targets=None, old_log_probs=None, advantages=None):
     """Mean over the batch of ``-log pi(a|s) A + value_coef * Huber(R - V) - entropy_coef * H(pi)``.
 
     ``A = R - V(s)`` is held constant (``stop_gradient``) in the policy term.
@@ -200,12 +259,23 @@ def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, conf
     to that constant factor, so the mean is used. A network with an auxiliary
     head (``apply`` returns a third output) adds ``aux_coef`` times
     :func:`aux_cross_entropy` on ``aux_targets`` (section 5.4.4, Algorithm 12).
+
+    Options (not in the thesis): ``advantages`` replaces ``A`` (e.g. normalized
+    ones, computed before the update); with ``config.clip_eps`` the policy
+    term is PPO's ``-min(rho A, clip(rho, 1 - eps, 1 + eps) A)``,
+    ``rho = pi(a|s) / pi_old(a|s)`` from ``old_log_probs``.
     """
     logits, values, *aux = apply_fn(params, obs, heuristics)
     logp = jax.nn.log_softmax(logits)
     logp_a = jnp.take_along_axis(logp, actions[:, None], axis=-1)[:, 0]
     advantage = returns - values
-    policy_loss = -jnp.mean(logp_a * jax.lax.stop_gradient(advantage))
+    adv = jax.lax.stop_gradient(advantage) if advantages is None else advantages
+    if config.clip_eps is None:
+        policy_loss = -jnp.mean(logp_a * adv)
+    else:
+        ratio = jnp.exp(logp_a - old_log_probs)
+        clipped = jnp.clip(ratio, 1.0 - config.clip_eps, 1.0 + config.clip_eps)
+        policy_loss = -jnp.mean(jnp.minimum(ratio * adv, clipped * adv))
     value_loss = jnp.mean(huber(advantage))
     entropy = -jnp.mean(jnp.sum(jnp.exp(logp) * logp, axis=-1))
     loss = policy_loss + config.value_coef * value_loss - config.entropy_coef * entropy
@@ -284,6 +354,7 @@ def make_train(config: A2CConfig, env, env_params, net, heuristics: Callable | N
                          "(for the DCG: lambda info: info['opponent_action'])")
     tx = make_optimizer(config)
     value_fn = functools.partial(net.apply, method="value")
+    needs_old_policy = config.gae_lambda < 1 or config.clip_eps is not None or config.normalize_advantages
 
     def init(key) -> TrainState:
         k_net, k_env, k_train = jax.random.split(key, 3)
@@ -310,18 +381,50 @@ def make_train(config: A2CConfig, env, env_params, net, heuristics: Callable | N
                        jnp.where(done, info["episode_reward"], 0.0), target)
         return (env_state2, obs2, key), t
 
+    def adam_step(carry, batch: Batch):
+        params, opt_state = carry
+        adv = batch.advantages
+        if config.normalize_advantages:
+            adv = (adv - jnp.mean(adv)) / (jnp.std(adv) + 1e-8)
+        grads, metrics = jax.grad(a2c_loss, has_aux=True)(
+            params, net.apply, batch.obs, batch.heuristics, batch.action, batch.returns, config,
+            batch.aux_target, batch.old_log_prob, adv)
+        updates, opt_state = tx.update(grads, opt_state, params)
+        return (optax.apply_updates(params, updates), opt_state), metrics
+
+    def learn(params, opt_state, key, batch: Batch):
+        """Algorithm 10's one Adam step on the batch, or ``epochs`` passes over ``minibatches`` shuffled parts."""
+        if config.steps_per_update == 1:
+            (params, opt_state), metrics = adam_step((params, opt_state), batch)
+            return params, opt_state, key, metrics
+
+        def epoch(carry, k):
+            perm = jax.random.permutation(k, config.batch_size)
+            parts = jax.tree_util.tree_map(lambda x: x[perm].reshape((config.minibatches, -1) + x.shape[1:]), batch)
+            return jax.lax.scan(adam_step, carry, parts)
+
+        key, k_perm = jax.random.split(key)
+        (params, opt_state), metrics = jax.lax.scan(epoch, (params, opt_state),
+                                                    jax.random.split(k_perm, config.epochs))
+        return params, opt_state, key, jax.tree_util.tree_map(jnp.mean, metrics)
+
     def update(ts: TrainState):
         (env_state, obs, key), traj = jax.lax.scan(
             functools.partial(env_step, ts.params), (ts.env_state, ts.obs, ts.key), None,
             config.t_max, unroll=config.unroll)
-        returns = nstep_returns(traj.reward, traj.terminated, traj.truncated, traj.final_value,
-                                value_fn(ts.params, obs), config.gamma)
         flat = lambda x: x.reshape((-1,) + x.shape[2:])  # noqa: E731  [T, B, ...] -> [T*B, ...]
-        grads, metrics = jax.grad(a2c_loss, has_aux=True)(
-            ts.params, net.apply, flat(traj.obs), flat(traj.heuristics), flat(traj.action), flat(returns), config,
-            flat(traj.aux_target))
-        updates, opt_state = tx.update(grads, ts.opt_state, ts.params)
-        params = optax.apply_updates(ts.params, updates)
+        old_log_prob = advantages = values = None
+        if needs_old_policy:  # options: pi_old and V(s_t) of the rollout, before this update
+            logits, values = net.apply(ts.params, flat(traj.obs), flat(traj.heuristics))[:2]
+            old_log_prob = jnp.take_along_axis(jax.nn.log_softmax(logits), flat(traj.action)[:, None], -1)[:, 0]
+            values = values.reshape(traj.reward.shape)
+        returns = nstep_returns(traj.reward, traj.terminated, traj.truncated, traj.final_value,
+                                value_fn(ts.params, obs), config.gamma, values, config.gae_lambda)
+        if needs_old_policy:
+            advantages = flat(returns - values)
+        batch = Batch(flat(traj.obs), flat(traj.heuristics), flat(traj.action), flat(returns),
+                      flat(traj.aux_target), old_log_prob, advantages)
+        params, opt_state, key, metrics = learn(ts.params, ts.opt_state, key, batch)
         done = traj.terminated | traj.truncated
         metrics = dict(metrics, episodes=jnp.sum(done), episode_reward_sum=jnp.sum(traj.episode_reward),
                        reward_per_step=jnp.mean(traj.reward))

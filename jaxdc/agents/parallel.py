@@ -1,0 +1,115 @@
+"""Scale a trainer: data parallel over devices (``jax.sharding``) and several seeds at once (``vmap``).
+
+Section 4.4.3 runs Algorithm 10 in 16 asynchronous threads, each acting in
+its own environment and pushing gradients to shared parameters. The
+synchronous trainers of this package (:mod:`jaxdc.agents.a2c`,
+:mod:`jaxdc.agents.nstep_q`) keep one parameter copy and a batch of
+``num_envs`` environments; :func:`parallelize` spreads that batch over the
+devices of a one-axis :class:`jax.sharding.Mesh`:
+
+* the environment batch (the training state's ``env_state`` and ``obs``, and
+  with them the whole rollout) is sharded along the environment axis with
+  ``NamedSharding(mesh, P("data"))``;
+* the parameters, the optimizer state, the RNG key and the update counter are
+  replicated (``P()``), so the gradient mean over the batch becomes an
+  all-reduce that XLA inserts.
+
+The program is the same global program on one CPU, several GPUs or a TPU
+slice (GSPMD partitions it); random numbers are drawn for the global batch
+(``jax_threefry_partitionable``), so a run's numbers do not depend on the
+device count, up to the order of float reductions. On several hosts, call
+``jax.distributed.initialize()`` first; :func:`data_mesh` then sees every
+host's devices.
+
+``num_seeds`` stacks that many independent runs along a new leading axis and
+``vmap`` s the trainer over it (PureJaxRL style): run ``i`` equals a single run
+started with ``keys[i]``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import numpy as np
+from jax.sharding import Mesh, NamedSharding
+from jax.sharding import PartitionSpec as P
+
+from jaxdc.agents.a2c import Trainer
+
+#: The mesh axis the environment batch is split along.
+DATA_AXIS = "data"
+#: Training-state fields that carry the environment axis (the rest is replicated).
+BATCHED_FIELDS = ("env_state", "obs")
+
+
+def data_mesh(num_devices: int | None = None) -> Mesh:
+    """A one-axis mesh (``"data"``) over the first ``num_devices`` devices (all of them if ``None``)."""
+    devices = jax.devices()
+    n = len(devices) if num_devices is None else num_devices
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= len(devices):
+        raise ValueError(f"num_devices must be an int in [1, {len(devices)}] (the devices JAX sees: "
+                         f"{len(devices)} {devices[0].platform}), got {num_devices!r}")
+    return Mesh(np.asarray(devices[:n]), (DATA_AXIS,))
+
+
+def state_shardings(state, mesh: Mesh, seed_axis: bool = False):
+    """Shardings of a training state: ``env_state``/``obs`` split along the environment axis, the rest replicated.
+
+    ``seed_axis``: the state carries a leading seed axis (:func:`parallelize` with ``num_seeds``), so the
+    environment axis is the second one.
+    """
+    env = NamedSharding(mesh, P(None, DATA_AXIS) if seed_axis else P(DATA_AXIS))
+    rep = NamedSharding(mesh, P())
+    return type(state)(**{
+        f.name: jax.tree_util.tree_map(lambda _, s=(env if f.name in BATCHED_FIELDS else rep): s,
+                                       getattr(state, f.name))
+        for f in dataclasses.fields(state)})
+
+
+def check_divisible(num_envs: int, num_devices: int) -> None:
+    """Raise a ``ValueError`` unless ``num_envs`` splits evenly over ``num_devices`` devices."""
+    d = num_devices
+    if num_envs % d:
+        raise ValueError(f"num_envs ({num_envs}) must be divisible by the number of devices ({d}); "
+                         f"use a multiple of {d} or fewer devices")
+
+
+def parallelize(trainer: Trainer, mesh: Mesh | None = None, num_seeds: int | None = None) -> Trainer:
+    """The same :class:`Trainer` spread over ``mesh`` (default: all devices) and, if ``num_seeds``, vmapped.
+
+    ``init`` then takes one key (``num_seeds=None``) or ``[num_seeds]`` keys; the states it returns and
+    ``update``/``run``/``train`` take and return are placed by :func:`state_shardings`; metrics are
+    replicated (with a leading seed axis when vmapped).
+    """
+    mesh = data_mesh() if mesh is None else mesh
+    check_divisible(trainer.config.num_envs, mesh.devices.size)
+    if num_seeds is not None and (isinstance(num_seeds, bool) or not isinstance(num_seeds, int) or num_seeds < 1):
+        raise ValueError(f"num_seeds must be an int >= 1 or None, got {num_seeds!r}")
+    vm = (lambda f: f) if num_seeds is None else jax.vmap
+    key_shape = jax.eval_shape(jax.random.PRNGKey, 0)
+    if num_seeds is not None:
+        key_shape = jax.ShapeDtypeStruct((num_seeds,) + key_shape.shape, key_shape.dtype)
+    shardings = state_shardings(jax.eval_shape(vm(trainer.init), key_shape), mesh, num_seeds is not None)
+    rep = NamedSharding(mesh, P())
+
+    def run(state, n: int):
+        return vm(lambda s: trainer.run(s, n))(state)
+
+    def train(keys):
+        return vm(trainer.train)(keys)
+
+    def init(key):  # not jitted, as the trainer's own init: a jitted one would compile the heuristics once more
+        return jax.device_put(vm(trainer.init)(key), shardings)
+
+    return Trainer(
+        init=init,
+        update=jax.jit(vm(trainer.update), in_shardings=(shardings,), out_shardings=(shardings, rep)),
+        run=jax.jit(run, static_argnums=1, in_shardings=(shardings,), out_shardings=(shardings, rep)),
+        train=jax.jit(train, out_shardings=(shardings, rep)),
+        config=trainer.config)
+
+
+def place(state, mesh: Mesh, seed_axis: bool = False):
+    """Put a (restored, host) training state on ``mesh`` as :func:`state_shardings` says."""
+    return jax.device_put(state, state_shardings(state, mesh, seed_axis))
