@@ -13,7 +13,9 @@ Examples::
 An evaluation writes its JSON atomically to ``--out`` (default
 ``results/dcg``); ``--json`` prints exactly one JSON object. ``figure``
 writes ``results/dcg/figure_<experiment>.{json,csv,md}`` and
-``docs/img/dcg_fig<N>.png``; ``render`` writes a PNG strip (Figs.
+``docs/img/dcg_fig<N>.png`` (evaluations are kept in ``runs/eval-cache/dcg/``
+and reused for the same parameter file and settings; ``--no-cache``
+re-runs them); ``render`` writes a PNG strip (Figs.
 5.13-5.15) and a GIF.
 """
 
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import hashlib
 import io
 import json
 import math
@@ -118,6 +121,9 @@ def figure_parser() -> argparse.ArgumentParser:
     p.add_argument("--nets-dir", default=None, help="folder of .msgpack parameter files (default: the shipped ones)")
     p.add_argument("--greedy", action="store_true")
     p.add_argument("--no-bound", action="store_true", help="reward-area figure: skip the exact bound")
+    p.add_argument("--cache", default=os.path.join("runs", "eval-cache", "dcg"),
+                   help="folder of stored evaluations, reused for the same parameter file and settings")
+    p.add_argument("--no-cache", action="store_true", help="re-evaluate every bar")
     p.add_argument("--out", default=RESULTS, help="folder for JSON/CSV/markdown")
     p.add_argument("--img", default=IMAGES, help="folder for the PNGs")
     return p
@@ -156,13 +162,22 @@ def strategy_set(args):
     return args.strategies
 
 
+_BOUNDS: dict = {}
+
+
 def bound_for(env, params):
-    """The exact full-information bound (``jaxdc.dcg.optimal``) of a reward-area game, or ``None`` without the solver."""
+    """The exact full-information bound (``jaxdc.dcg.optimal``) of a reward-area game, or ``None`` without the solver.
+
+    Solved once per game (environment and numeric settings) in a process.
+    """
     try:
         from jaxdc.dcg.optimal import full_information_bound
     except ImportError:
         return None
-    return full_information_bound(env, params)
+    key = (env, float(params.max_energy), int(params.max_steps), int(params.chase_tie))
+    if key not in _BOUNDS:
+        _BOUNDS[key] = full_information_bound(env, params)
+    return _BOUNDS[key]
 
 
 # -- one evaluation -----------------------------------------------------------------------------
@@ -290,11 +305,14 @@ def run_experiment(exp, pool, folder, args, progress=print) -> dict:
     for g in exp.groups:
         results[g] = {}
         for entry in select(pool, exp, g):
-            if entry.name not in cache:
-                cache[entry.name] = learned_lib.load(os.path.join(folder, entry.name + ".msgpack"))
-            r = evaluate(cache[entry.name], episodes=args.episodes, seed=args.seed, energy=entry.energy,
-                         strategies=entry.strategies, reward_area=entry.reward_area, greedy=args.greedy,
-                         bound=not args.no_bound)
+            settings = dict(episodes=args.episodes, seed=args.seed, energy=entry.energy, strategies=entry.strategies,
+                            reward_area=entry.reward_area, greedy=args.greedy, bound=not args.no_bound)
+            r = _cached(os.path.join(folder, entry.name + ".msgpack"), settings, args)
+            if r is None:
+                if entry.name not in cache:
+                    cache[entry.name] = learned_lib.load(os.path.join(folder, entry.name + ".msgpack"))
+                r = evaluate(cache[entry.name], **settings)
+                _store(os.path.join(folder, entry.name + ".msgpack"), settings, args, r)
             r["file"] = entry.name
             r["note"] = entry.note
             results[g][entry.label] = r
@@ -322,6 +340,29 @@ def _save(plt, fig, path):
     fig.savefig(buf, format="png", dpi=100)
     plt.close(fig)
     return atomic_write(path, buf.getvalue())
+
+
+def _cache_path(blob, settings, args):
+    """``CACHE/<sha256>.json``: one evaluation of one parameter file (its bytes and metadata) with one set of settings."""
+    digest = hashlib.sha256()
+    for path in (blob, blob[: -len(".msgpack")] + ".json"):
+        with open(path, "rb") as f:
+            digest.update(f.read())
+    digest.update(json.dumps(settings, sort_keys=True, default=list).encode())
+    return os.path.join(args.cache, digest.hexdigest()[:24] + ".json")
+
+
+def _cached(blob, settings, args):
+    """A stored evaluation of the same file with the same settings (``--no-cache`` ignores it)."""
+    path = _cache_path(blob, settings, args)
+    if args.no_cache or not os.path.isfile(path):
+        return None
+    with open(path) as f:
+        return json.load(f)
+
+
+def _store(blob, settings, args, result):
+    atomic_write_json(_cache_path(blob, settings, args), result)
 
 
 def _plot(exp, results, bounds, col, path, title):

@@ -80,8 +80,9 @@ def test_same_seed_same_numbers(nets, tmp_path, capsys):
 
 def test_figure_writes_png_json_and_claims(nets, tmp_path, capsys):
     out, img = tmp_path / "res", tmp_path / "img"
-    md = _run(["figure", "5.6", "--nets-dir", nets, "--episodes", EPISODES, "--out", str(out), "--img", str(img)],
-              capsys).out
+    argv = ["figure", "5.6", "--nets-dir", nets, "--episodes", EPISODES, "--out", str(out), "--img", str(img),
+            "--cache", str(tmp_path / "cache")]
+    md = _run(argv, capsys).out
     assert sorted(os.listdir(img)) == ["dcg_fig5_6.png", "dcg_fig5_7.png", "dcg_standard_per_strategy.png"]
     assert all((img / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for f in os.listdir(img))
     with open(out / "figure_standard.json") as f:
@@ -92,6 +93,16 @@ def test_figure_writes_png_json_and_claims(nets, tmp_path, capsys):
     assert any(m.startswith("VNN") for m in data["missing"])  # says which networks are missing
     assert (out / "figure_standard.csv").read_text().startswith("group,network,strategy")
     assert "| thesis claim | ours | agrees |" in md and "Missing networks" in md
+    # the evaluation is stored and reused: a second run reads it instead of playing again
+    (stored,) = os.listdir(tmp_path / "cache")
+    with open(tmp_path / "cache" / stored) as f:
+        kept = json.load(f)
+    kept["reward"]["mean"] = 123.0
+    with open(tmp_path / "cache" / stored, "w") as f:
+        json.dump(kept, f)
+    _run(argv, capsys)
+    with open(out / "figure_standard.json") as f:
+        assert json.load(f)["results"]["all"]["OMN+CoNN"]["reward"]["mean"] == 123.0
 
 
 def test_render_writes_strip_and_gif(nets, tmp_path, capsys):
