@@ -244,18 +244,20 @@ def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list
         labs = sorted({lb for grp in results.values() for lb in grp}, key=lambda lb: list(NET_LABELS.values()).index(
             lb.split(" ")[0]) if lb.split(" ")[0] in NET_LABELS.values() else 9)
         for lb in labs:
+            retrained = all(not results.get(e, {}).get(lb, {}).get("note") for e in (10.0, 20.0))
+            how = "" if retrained else " [played by the energy-15 network: not retrained as in the thesis]"
             r10, r15, r20 = (_m(results, e, lb) for e in (10.0, 15.0, 20.0))
             q10, q15, q20 = (_m(results, e, lb, "rpe") for e in (10.0, 15.0, 20.0))
             if lb == "VNN":
                 rows.append(("VNN: more reward at energy 10 than at 15; similar at 20 (Fig. 5.8)",
-                             f"10: {_fmt(_pct(r10, r15), 1, '%')}, 20: {_fmt(_pct(r20, r15), 1, '%')} vs 15",
+                             f"10: {_fmt(_pct(r10, r15), 1, '%')}, 20: {_fmt(_pct(r20, r15), 1, '%')} vs 15" + how,
                              yn(None if None in (r10, r15) else r10 > r15)))
             else:
                 rows.append((f"{lb}: less reward at energy 10 than at 15; similar but slightly less at 20 (Fig. 5.8)",
-                             f"10: {_fmt(_pct(r10, r15), 1, '%')}, 20: {_fmt(_pct(r20, r15), 1, '%')} vs 15",
+                             f"10: {_fmt(_pct(r10, r15), 1, '%')}, 20: {_fmt(_pct(r20, r15), 1, '%')} vs 15" + how,
                              yn(None if None in (r10, r15, r20) else r10 < r15 and -10 <= _pct(r20, r15) <= 0)))
             rows.append((f"{lb}: RPE at 20 about that at 15; higher at 10 (Fig. 5.9)",
-                         f"10: {_fmt(_pct(q10, q15), 1, '%')}, 20: {_fmt(_pct(q20, q15), 1, '%')} vs 15",
+                         f"10: {_fmt(_pct(q10, q15), 1, '%')}, 20: {_fmt(_pct(q20, q15), 1, '%')} vs 15" + how,
                          yn(None if None in (q10, q15, q20) else q10 > q15 and abs(_pct(q20, q15)) <= 5)))
     elif exp.name == "area":
         sizes = [s for s in exp.groups if s in results]
@@ -295,7 +297,9 @@ def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list
             claim = (f"{NET_LABELS[net]}: better than in Fig. 5.6" if better
                      else f"{NET_LABELS[net]}: about the same as in Fig. 5.6")
             ok = None if d is None else (d > 0 if better else abs(d) <= 5)
-            rows.append((claim + " (Fig. 5.18)", f"{_fmt(d, 1, '%')} vs the standard set", yn(ok)))
+            note = results.get(g, {}).get(lab, {}).get("note") if lab else None
+            rows.append((claim + " (Fig. 5.18)", f"{_fmt(d, 1, '%')} vs the standard set"
+                         + (f" [{note}]" if note else ""), yn(ok)))
         vnn = _find(results, g, "vnn")
         s = results.get(g, {}).get(vnn, {}).get("per_strategy", {}).get("double_blind") if vnn else None
         rows.append(("VNN simply stays in the base against double-blind with-fog (5.5.7)",

@@ -1,0 +1,77 @@
+"""jaxdc.dcg.figures: which networks each thesis figure uses, and the thesis' claims beside ours (no games played)."""
+
+from __future__ import annotations
+
+from jaxdc.dcg.figures import EXPERIMENTS, FIGURES, claims, label, missing, select
+from jaxdc.dcg.opponents import DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES
+
+
+def _meta(net, energy=15.0, steps=1_000_000, strategies=STANDARD_STRATEGIES, alpha=None):
+    return {"net": net, "problem": "dcg", "energy": energy, "steps": steps, "strategies": list(strategies),
+            "alpha": alpha}
+
+
+def _summary(reward, sd=1.0, rpe=0.3, acc=None):
+    return {"reward": {"mean": reward, "sd": sd}, "rpe": {"mean": rpe, "sd": 0.1}, "opponent_accuracy": acc,
+            "per_strategy": {}, "note": ""}
+
+
+def test_every_figure_pair_maps_to_one_experiment():
+    assert FIGURES["5.6"] == FIGURES["5.7"] == "standard"
+    assert FIGURES["5.11"] == FIGURES["5.12"] == "area"
+    assert FIGURES["5.18"] == "double_blind" and EXPERIMENTS["double_blind"].strategies == DOUBLE_BLIND_STRATEGIES
+    assert label(_meta("emnn", alpha=0.0001)) == "EMNN a=0.0001" and label(_meta("omn_conn")) == "OMN+CoNN"
+
+
+def test_select_orders_networks_and_prefers_retrained_ones():
+    pool = {"omn_conn": _meta("omn_conn"), "vnn": _meta("vnn"), "emnn": _meta("emnn", alpha=0.001),
+            "emnn4": _meta("emnn", alpha=0.0001), "vnn_e10": _meta("vnn", energy=10.0),
+            "vnn_5m": _meta("vnn", steps=5_000_000)}
+    standard = select(pool, EXPERIMENTS["standard"], None)
+    assert [e.label for e in standard] == ["VNN", "EMNN a=0.001", "EMNN a=0.0001", "OMN+CoNN"]
+    assert [e.name for e in standard][0] == "vnn"  # not the 5M or energy-10 network
+    at10 = {e.label: e for e in select(pool, EXPERIMENTS["energy"], 10.0)}
+    assert at10["VNN"].name == "vnn_e10" and at10["VNN"].note == "" and at10["VNN"].energy == 10.0
+    assert at10["OMN+CoNN"].name == "omn_conn" and at10["OMN+CoNN"].note == "trained at energy 15"
+    area = select(pool, EXPERIMENTS["area"], 2)
+    assert all(e.reward_area == 2 for e in area)
+    assert [e.name for e in select(pool, EXPERIMENTS["standard_5m"], None)] == ["vnn_5m"]
+    blind = select(pool, EXPERIMENTS["double_blind"], None)
+    assert all(e.strategies == DOUBLE_BLIND_STRATEGIES and "not retrained" in e.note for e in blind)
+    gone = missing(pool, EXPERIMENTS["standard"])
+    assert gone == ["IMNN trained in the standard setting"]
+
+
+def test_standard_claims_on_a_hand_example():
+    results = {None: {"VNN": _summary(5.0, sd=2.0, rpe=0.40), "IMNN": _summary(5.45, rpe=0.30),
+                      "EMNN a=0.001": _summary(5.85, rpe=0.35, acc=0.74),
+                      "EMNN a=0.0001": _summary(5.5, rpe=0.45, acc=0.5),
+                      "OMN+CoNN": _summary(6.0, sd=0.5, rpe=0.33, acc=0.99)}}
+    rows = {c: (o, a) for c, o, a in claims(EXPERIMENTS["standard"], results)}
+    by_start = {c.split(":")[0]: v for c, v in rows.items()}
+    assert by_start["IMNN"] == ("+9.0%", "yes")
+    assert by_start["EMNN a=0.001"] == ("+17.0%", "yes")
+    assert rows["OMN+CoNN: above +19% episode reward over VNN (Fig. 5.6)"] == ("+20.0%", "yes")
+    assert rows["OMN+CoNN: the highest reward with the smallest SD (Fig. 5.6)"][1] == "yes"
+    assert rows["EMNN a=0.0001 the best RPE, followed by VNN (Fig. 5.7)"][1] == "yes"
+    assert rows["EMNN opponent-action accuracy about 75% (5.5.3)"] == ("74.0%", "yes")
+    assert rows["OMN opponent-action accuracy over 98% (5.5.3)"] == ("99.0%", "yes")
+    # a worse OMN+CoNN fails its claims
+    results[None]["OMN+CoNN"] = _summary(5.5, sd=3.0, acc=0.4)
+    rows = {c: (o, a) for c, o, a in claims(EXPERIMENTS["standard"], results)}
+    assert rows["OMN+CoNN: the highest reward with the smallest SD (Fig. 5.6)"][1] == "no"
+    assert rows["OMN opponent-action accuracy over 98% (5.5.3)"][1] == "no"
+
+
+def test_area_claims_and_the_bound_goal():
+    def area(reward, fraction):
+        s = _summary(reward, rpe=reward / 10)
+        s["fraction_of_bound"] = fraction
+        return s
+
+    results = {s: {"VNN": area(0.1 * s, 0.5), "OMN+CoNN": area(0.2 * s, 0.95 if s > 1 else 0.8)} for s in (1, 2, 3, 4)}
+    rows = {c: (o, a) for c, o, a in claims(EXPERIMENTS["area"], results)}
+    assert rows["Every network's reward falls as the reward area shrinks (Fig. 5.11)"][1] == "yes"
+    assert rows["The opponent-modelling networks beat VNN at every size, most at size 1 (Fig. 5.11)"][1] == "yes"
+    goal = [v for c, v in rows.items() if "90%" in c][0]
+    assert goal == ("size 1: 80.0%, size 2: 95.0%, size 3: 95.0%, size 4: 95.0%", "no")
