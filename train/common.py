@@ -1,0 +1,207 @@
+"""Pieces shared by the training command lines (``train.dcg``; ``train.dcp`` can move onto them).
+
+* argument parsing: :func:`positive`, :func:`nonnegative_float` and
+  :func:`add_a2c_arguments` (the A2C hyperparameters of section 4.5 / 5.5.2
+  and the run-control flags);
+* the metrics CSV: :func:`read_rows`, :func:`write_rows` (atomic);
+* :class:`TrainingRun`: the loop of a run -- a progress bar, an evaluation
+  row and an orbax checkpoint every ``--eval-every`` steps, exact
+  ``--resume`` from the latest checkpoint, and a stop (status ``"nan"``,
+  before any checkpoint) when the loss is not finite. A subclass builds the
+  trainer and says how to evaluate.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import math
+import os
+import sys
+import tempfile
+import time
+
+import jax
+import numpy as np
+
+from jaxdc import checkpoint
+from jaxdc.agents.a2c import A2CConfig, lr_schedule
+from jaxdc.io import atomic_write, atomic_write_json
+
+#: Exit status of a run stopped by a NaN loss.
+EXIT_NAN = 3
+#: How updates are driven: one jitted update per Python iteration, or ``n`` updates in one ``lax.scan``.
+LAYOUTS = ("loop", "scan")
+
+
+def positive(kind, name):
+    """argparse type: a ``kind`` (int or float) > 0, finite; the error names ``name`` and the value."""
+    def parse(text):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number > 0, got {text!r}") from None
+        if not v > 0 or (kind is float and math.isinf(v)):
+            raise argparse.ArgumentTypeError(f"{name} must be > 0, got {text!r}")
+        return v
+
+    return parse
+
+
+def nonnegative_float(name):
+    """argparse type: a float >= 0; the error names ``name`` and the value."""
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number >= 0, got {text!r}") from None
+        if not v >= 0:
+            raise argparse.ArgumentTypeError(f"{name} must be >= 0, got {text!r}")
+        return v
+
+    return parse
+
+
+def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eval_episodes: int = 500) -> None:
+    """The A2C hyperparameters (defaults of sections 4.5 and 5.5.2) and the run-control flags."""
+    p.add_argument("--steps", type=positive(int, "--steps"), default=1_000_000,
+                   help="T_max: environment steps in total (the learning rate reaches 0 there)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--envs", type=positive(int, "--envs"), default=16, help="parallel environments (16 threads)")
+    p.add_argument("--t-max", type=positive(int, "--t-max"), default=32, help="rollout length per update")
+    p.add_argument("--lr", type=positive(float, "--lr"), default=1e-4, help="initial learning rate")
+    p.add_argument("--gamma", type=nonnegative_float("--gamma"), default=0.99)
+    p.add_argument("--entropy", type=nonnegative_float("--entropy"), default=A2CConfig.entropy_coef,
+                   help="entropy bonus weight (default 0.01 as in A3C; 0 for the thesis' two loss terms)")
+    p.add_argument("--value-coef", type=nonnegative_float("--value-coef"), default=A2CConfig.value_coef)
+    p.add_argument("--max-grad-norm", type=positive(float, "--max-grad-norm"), default=None)
+    p.add_argument("--layout", choices=LAYOUTS, default="loop",
+                   help="loop: one jitted update per Python iteration (faster on CPU); scan: updates in lax.scan")
+    p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
+    p.add_argument("--eval-every", type=positive(int, "--eval-every"), default=eval_every,
+                   help="environment steps between evaluations and checkpoints")
+    p.add_argument("--eval-episodes", type=positive(int, "--eval-episodes"), default=eval_episodes)
+    p.add_argument("--greedy-eval", action="store_true", help="evaluate the argmax policy instead of sampling")
+    p.add_argument("--keep", type=positive(int, "--keep"), default=3, help="checkpoints to keep")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def check_writable(folder: str) -> None:
+    """Create ``folder`` if needed; raise a ``ValueError`` naming it if it cannot be written."""
+    try:
+        os.makedirs(folder, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as e:
+        raise ValueError(f"output folder {folder!r} is not writable: {e}") from None
+
+
+def read_rows(path: str, max_updates: int) -> list[dict]:
+    """The CSV rows of ``path`` up to update ``max_updates`` (a resumed run drops rows past its checkpoint)."""
+    if not os.path.exists(path):
+        return []
+    with open(path, newline="") as f:
+        return [r for r in csv.DictReader(f) if int(r["updates"]) <= max_updates]
+
+
+def write_rows(path: str, rows: list[dict], fields) -> None:
+    """Write ``rows`` with the columns ``fields`` to ``path`` atomically."""
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=fields, restval="", extrasaction="ignore")
+    w.writeheader()
+    w.writerows(rows)
+    atomic_write(path, buf.getvalue())
+
+
+class TrainingRun:
+    """The loop of a training command line. A subclass sets, in its constructor:
+
+    ``args`` (with the flags of :func:`add_a2c_arguments`), ``out``, ``ckpt_dir``,
+    ``config`` (``batch_size``, ``num_updates``), ``trainer`` (``init``, ``update``,
+    ``run`` of :func:`jaxdc.agents.a2c.make_train`), ``metadata`` (checked on
+    ``--resume``), ``loss_metrics`` (training metrics averaged into each row) and
+    ``csv_fields``; and defines :meth:`evaluate`.
+    """
+
+    postfix_key = "eval_reward"
+
+    def evaluate(self, params, update: int) -> dict:  # pragma: no cover - abstract
+        """The evaluation columns of the row at ``update``."""
+        raise NotImplementedError
+
+    # -- state --------------------------------------------------------------------------
+    def initial_state(self):
+        """A fresh state (writes ``config.json``), or with ``--resume`` the latest checkpoint's."""
+        a = self.args
+        check_writable(self.out)
+        state = self.trainer.init(jax.random.PRNGKey(a.seed))
+        existing = checkpoint.steps(self.ckpt_dir)
+        if not a.resume:
+            if existing:
+                raise ValueError(f"{self.ckpt_dir} already holds checkpoints {existing}; "
+                                 "pass --resume to continue or choose another --out")
+            atomic_write_json(os.path.join(self.out, "config.json"), self.metadata)
+            return state
+        if not existing:
+            raise ValueError(f"--resume: no checkpoint found in {self.ckpt_dir}")
+        state, _ = checkpoint.restore(self.ckpt_dir, state, self.metadata)
+        return state
+
+    # -- the loop -----------------------------------------------------------------------
+    def train(self) -> dict:
+        """Train to the end (or to a NaN loss); return the last metrics row with ``"status"``.
+
+        The final training state is kept in ``self.final_state``.
+        """
+        from tqdm import tqdm
+
+        a, cfg = self.args, self.config
+        state = self.initial_state()
+        update = int(state.update)
+        csv_path = os.path.join(self.out, "metrics.csv")
+        rows = read_rows(csv_path, update)
+        every = max(1, a.eval_every // cfg.batch_size)
+        schedule = lr_schedule(cfg)
+        bar = tqdm(total=cfg.num_updates * cfg.batch_size, initial=update * cfg.batch_size, unit="step",
+                   unit_scale=True, disable=a.no_progress, dynamic_ncols=True)
+        row = {"status": "done", "updates": update}
+        self.final_state = state
+        while update < cfg.num_updates:
+            n = min(every - update % every, cfg.num_updates - update)
+            t0 = time.perf_counter()
+            state, metrics = self._updates(state, n, bar)
+            metrics = jax.device_get(metrics)
+            wall = time.perf_counter() - t0
+            if not np.all(np.isfinite(metrics["loss"])):
+                bar.close()
+                print(f"error: the loss became NaN/inf between updates {update} and {update + n}; stopping. "
+                      f"The last good checkpoint is in {self.ckpt_dir}", file=sys.stderr)
+                return {"status": "nan", "updates": update}
+            update += n
+            episodes = int(np.sum(metrics["episodes"]))
+            row = {"env_steps": update * cfg.batch_size, "updates": update, "wall_s": round(wall, 3),
+                   "steps_per_s": round(n * cfg.batch_size / wall, 1), "lr": float(schedule(update)),
+                   **{k: float(np.mean(metrics[k])) for k in self.loss_metrics if k in metrics},
+                   "train_episodes": episodes,
+                   "train_reward": float(np.sum(metrics["episode_reward_sum"]) / max(episodes, 1)),
+                   **self.evaluate(state.params, update)}
+            rows.append(row)
+            checkpoint.save(self.ckpt_dir, update, state, self.metadata, keep=a.keep)
+            write_rows(csv_path, rows, self.csv_fields)
+            bar.set_postfix({self.postfix_key: f"{row[self.postfix_key]:.3f}"})
+            self.final_state = state
+        bar.close()
+        return dict(row, status="done")
+
+    def _updates(self, state, n: int, bar):
+        if self.args.layout == "scan":
+            state, metrics = self.trainer.run(state, n)
+            bar.update(n * self.config.batch_size)
+            return state, metrics
+        history = []
+        for _ in range(n):
+            state, m = self.trainer.update(state)
+            history.append(m)
+            bar.update(self.config.batch_size)
+        return state, jax.tree_util.tree_map(lambda *x: np.stack(x), *jax.device_get(history))
