@@ -50,8 +50,11 @@ def straight_to_item(key, obs, state):
     return grid.shortest_move(state.pos, jnp.stack([item // n, item % n]), n)
 
 
-def random_policy(key, obs, state):
-    return jax.random.randint(key, (), 0, grid.NUM_ACTIONS)
+def half_random(key, obs, state):
+    """Straight to the item or, with probability 1/2, a uniformly random action."""
+    k_coin, k_action = jax.random.split(key)
+    rand = jax.random.randint(k_action, (), 0, grid.NUM_ACTIONS)
+    return jnp.where(jax.random.bernoulli(k_coin), rand, straight_to_item(key, obs, state))
 
 
 # -- hand-computed games on a 2 x 2 grid ----------------------------------------------------------
@@ -153,14 +156,13 @@ def test_optimal_plans_collect_exactly_what_the_solver_says(thesis_game):
     assert 0.5 < bound < 1.0
 
 
-@pytest.mark.parametrize("policy", [straight_to_item, random_policy])
-def test_no_heuristic_beats_the_bound_in_any_game(thesis_game, policy):
+def test_no_heuristic_beats_the_bound_in_any_game(thesis_game):
     env, params, sol = thesis_game
-    states = resets(env, params, 600, seed=4)
-    got = simulate(env, params, policy, states, 40, seed=5)
+    states = resets(env, params, 800, seed=4)
+    got = simulate(env, params, half_random, states, 40, seed=5)
     want = predicted(sol, states)
     assert np.all(got <= want), "a collector beat the full-information optimum in some game"
-    assert got.mean() > 0.0
+    assert 0.0 < got.mean() < want.mean()
 
 
 def test_bound_over_sizes_is_monotone_and_reuses_the_solution(thesis_game):

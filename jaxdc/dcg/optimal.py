@@ -119,11 +119,6 @@ def _check_params(params):
     return energy, int(_scalar(params, "max_steps"))
 
 
-def _check_area(env, reward_area):
-    """The item cells: ``reward_area`` (validated), else ``env.reward_area``, else the whole grid."""
-    return env.reward_area_cells(reward_area)
-
-
 # -- the opponent as a finite machine --------------------------------------------------------------
 
 
@@ -365,7 +360,7 @@ def solve(env, params) -> Solution:
         steps[s, : st.shape[0]] = st
         plans[s, :, : pl.shape[1], : pl.shape[2]] = pl
     return Solution(
-        steps=steps.astype(np.int64), init_class=np.stack(inits).astype(np.int32), start_weight=weight,
+        steps=steps.astype(np.int32), init_class=np.stack(inits).astype(np.int32), start_weight=weight,
         plans=plans, strategies=tuple(env.strategies), grid_size=env.grid_size, max_energy=energy,
         max_steps=max_steps, opponent_classes=tuple(classes), seconds=_time.perf_counter() - t0,
     )
@@ -396,7 +391,7 @@ def full_information_bound(env, params, reward_area: int | None = None, solution
     pass a ``solution`` from :func:`solve` (same env and params) to reuse it
     across reward areas.
     """
-    cells = _check_area(env, reward_area)
+    cells = env.reward_area_cells(reward_area)  # validates reward_area
     t0 = _time.perf_counter()
     sol = solve(env, params) if solution is None else solution
     out = bound_from_solution(sol, cells)
