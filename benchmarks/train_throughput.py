@@ -3,7 +3,8 @@
 Usage::
 
     python benchmarks/train_throughput.py [--json] [--envs 16 64 256] [--nets enn cnn]
-                                          [--layouts loop scan] [--chunk-steps N] [--repeats R]
+                                          [--layouts loop scan] [--scan-envs 16] [--chunk-steps N]
+                                          [--sb3-chunk-steps N] [--sb3-vec-envs dummy jaxvec] [--repeats R]
                                           [--no-sb3] [--no-dcg] [--quick]
 
 What is timed, all in one invocation so that the ratios are taken side by side on the
@@ -325,6 +326,8 @@ def run(args) -> dict:
     for b in args.envs:
         for net in args.nets:
             for layout in args.layouts:
+                if layout == "scan" and args.scan_envs is not None and b not in args.scan_envs:
+                    continue
                 row = bench_jax(net, b, layout, args.chunk_steps, repeats)
                 log(f"{row['impl']:>14} {layout:>4} envs={b:<4} {row['steps_per_s']:>10,.0f} steps/s "
                     f"(compile {row['compile_s']:.1f} s)")
@@ -481,6 +484,8 @@ def parse_args(argv=None):
     p.add_argument("--envs", type=int, nargs="+", default=list(DEFAULT_ENVS), help="numbers of environments")
     p.add_argument("--nets", nargs="+", choices=NETS, default=list(NETS))
     p.add_argument("--layouts", nargs="+", choices=LAYOUTS, default=list(LAYOUTS))
+    p.add_argument("--scan-envs", type=int, nargs="+", default=None,
+                   help="run the scan layout only at these numbers of environments (default: all of --envs)")
     p.add_argument("--chunk-steps", type=int, default=65_536, help="env-steps per timed jaxdc chunk")
     p.add_argument("--sb3-chunk-steps", type=int, default=4096, help="env-steps per timed SB3 chunk (>= 1 update)")
     p.add_argument("--sb3-vec-envs", nargs="+", choices=SB3_VEC_ENVS, default=list(SB3_VEC_ENVS),
