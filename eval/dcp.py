@@ -221,7 +221,8 @@ def make_env(args, setting: dict, learned=None):
     options = dict(start=args.start, items_on_base=not args.no_items_on_base, energy_metric=args.energy_metric,
                    idle_terminates=not args.no_idle_stop, item_order=args.item_order)
     if learned is not None:
-        options.update(idle_terminates=False, **learned.env_options())
+        options.update(idle_terminates=False)
+        options.update(learned.env_options())
     env = dcp_env.DCP(grid_size=setting["grid_size"], total_reward=setting["total_reward"], **options)
     return env, env.make_params(setting["risk"], setting["energy"], max_steps=setting["max_steps"])
 

@@ -23,7 +23,8 @@ from jaxdc.dcp.evaluate import evaluate_learned, summarize
 from jaxdc.dcp.tables import TABLES, incr_percent
 
 SMALL = {"problem": "dcp", "grid_size": 5, "total_reward": 6, "risk": "high", "energy": [8.0, 16.0],
-         "max_steps": 200}
+         "max_steps": 200,
+         "env": {"start": "random_free", "items_on_base": True, "idle_terminates": False, "item_order": "drop"}}
 SHIPPED = ("enn", "enn_energy16_32", "linear", "eqn")
 
 
