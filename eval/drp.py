@@ -1,6 +1,6 @@
 """DRP command line: plan one graph, rerun the thesis' chapter-3 figures, optimality gaps.
 
-    python -m eval.drp plan --graph FILE.json --builder gi --clustering pgc [--json]
+    python -m eval.drp plan --graph FILE.json --builder gi --clustering pgc [--json] [--draw PLAN.png]
     python -m eval.drp figure 3.1 [--graphs 100 --nodes 100 --alphas 0,5,...,80 --base centre|corner]
     python -m eval.drp gaps [--graphs 200 --nodes 8]
 
@@ -104,7 +104,22 @@ def cmd_plan(args):
               f"expected reward {reward:.4f}")
         for i, t in enumerate(tours, 1):
             print(f"  robot {i}: 0 -> {' -> '.join(map(str, t))} -> 0")
+    if args.draw:
+        from jaxdc.viewer import draw_plan
+
+        buf = io.BytesIO()
+        draw_plan(graph, tours, title=f"{args.builder.upper()} + {args.clustering.upper()}: {len(tours)} robot(s), "
+                                      f"expected reward {reward:.3f}").savefig(buf, format="png", dpi=100)
+        _atomic_write(args.draw, buf.getvalue())
+        if not args.json:
+            print(f"tours drawn to {args.draw}")
     return 0
+
+
+def _png(text: str) -> str:
+    if not text.lower().endswith(".png"):
+        raise argparse.ArgumentTypeError(f"must name a .png file, got {text!r}")
+    return text
 
 
 # ----------------------------------------------------------------------------- figures
@@ -318,6 +333,7 @@ def main(argv=None):
     pp.add_argument("--builder", choices=BUILDERS, default="gi")
     pp.add_argument("--clustering", choices=("nc", "pgc"), default="pgc")
     pp.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    pp.add_argument("--draw", metavar="PNG", type=_png, help="also draw the tours, one colour per robot, to this PNG")
     pf = sub.add_parser("figure", help="rerun a chapter-3 figure")
     pf.add_argument("figure", choices=sorted(FIGURE_REWARDS))
     pf.add_argument("--graphs", type=int, default=100)

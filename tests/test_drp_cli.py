@@ -63,3 +63,18 @@ def test_plot_writes_png(tmp_path):
             for c in ("nc", "pgc") for a in (0, 20)]
     cli._plot(rows, [0, 20], ["gi"], "3.4", str(tmp_path / "f.png"))
     assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_plan_draw_writes_the_tours(tmp_path, capsys):
+    from matplotlib.image import imread
+
+    world.save(world.generate(5, n=9, size=40, alpha=15.0), tmp_path / "g.json")
+    png = tmp_path / "plan.png"
+    assert cli.main(["--out", str(tmp_path), "plan", "--graph", str(tmp_path / "g.json"), "--draw", str(png)]) == 0
+    assert f"tours drawn to {png}" in capsys.readouterr().out
+    img = imread(png)[..., :3]
+    assert img.shape == (500, 500, 3)
+    assert (img.max(axis=-1) - img.min(axis=-1) > 0.3).sum() > 100  # coloured tour lines, not only grey
+    with pytest.raises(SystemExit):
+        cli.main(["--out", str(tmp_path), "plan", "--graph", str(tmp_path / "g.json"), "--draw", "plan.jpg"])
+    assert "must name a .png file" in capsys.readouterr().err
