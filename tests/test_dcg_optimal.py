@@ -190,6 +190,8 @@ def test_bad_input():
         optimal.solve(env, env.make_params(energy=2.5))
     with pytest.raises(ValueError, match="reward_area"):
         optimal.full_information_bound(env, env.make_params(), reward_area=4)
+    with pytest.raises(ValueError, match="grid_size"):
+        optimal.solve(DCG(grid_size=8, history=1), DCG(grid_size=8, history=1).make_params())
     batch = jax.vmap(lambda e: env.make_params().replace(max_energy=e))(jnp.array([3.0, 4.0]))
     with pytest.raises(ValueError, match="scalar"):
         optimal.solve(env, batch)

@@ -63,6 +63,8 @@ from jaxdc.dcg.opponents import CHASE_TIES, OpponentState
 
 #: Earliest-collection step of an item that cannot be collected within the step cap.
 NEVER = np.iinfo(np.int32).max
+#: The largest grid :func:`solve` accepts: it tabulates the opponent on all ``2 N^6`` (state, collector) pairs.
+MAX_GRID_SIZE = 7
 
 
 class Solution(NamedTuple):
@@ -337,8 +339,11 @@ def solve(env, params) -> Solution:
     ``env`` is a :class:`jaxdc.dcg.env.DCG` (its rules: ``reward_when_caught``,
     ``opponent_start``, ``patrol_target``, ``strategies``), ``params`` one
     scalar :class:`EnvParams` with a whole (or infinite) ``max_energy`` and a
-    deterministic ``chase_tie``. Raises ``ValueError`` otherwise.
+    deterministic ``chase_tie``; ``grid_size <= MAX_GRID_SIZE``. Raises
+    ``ValueError`` otherwise.
     """
+    if env.grid_size > MAX_GRID_SIZE:
+        raise ValueError(f"grid_size must be <= {MAX_GRID_SIZE} for the exact bound, got {env.grid_size}")
     energy, max_steps = _check_params(params)
     t0 = _time.perf_counter()
     c = env.grid_size**2
