@@ -174,6 +174,8 @@ def test_bound_per_reward_area_reuses_the_solution(thesis_game):
     totals = [optimal.full_information_bound(env, params, s, solution=sol)["total"] for s in range(1, n + 1)]
     assert 0.0 < min(totals) and max(totals) < 1.0
     assert totals[1] * 4 == pytest.approx(totals[0] + 3 * optimal.bound_from_solution(sol, [n * n - 2, n * n - n - 2, n * n - n - 1])["total"])
+    with pytest.raises(ValueError, match="solution"):
+        optimal.full_information_bound(env, env.make_params(energy=7.0, max_steps=30), solution=sol)
     one = optimal.full_information_bound(env, params, 1, solution=sol)
     assert set(one["per_strategy"]) == set(env.strategies) and one["reward_area"] == 1
     assert one["total"] == pytest.approx(np.mean(list(one["per_strategy"].values())))

@@ -397,6 +397,13 @@ def full_information_bound(env, params, reward_area: int | None = None, solution
     across reward areas.
     """
     cells = env.reward_area_cells(reward_area)  # validates reward_area
+    if solution is not None:
+        energy, max_steps = _check_params(params)
+        have = (solution.grid_size, solution.strategies, solution.max_energy, solution.max_steps)
+        want = (env.grid_size, tuple(env.strategies), energy, max_steps)
+        if have != want:
+            raise ValueError(f"solution was solved for (grid_size, strategies, max_energy, max_steps) = {have}, "
+                             f"not {want}")
     t0 = _time.perf_counter()
     sol = solve(env, params) if solution is None else solution
     out = bound_from_solution(sol, cells)
