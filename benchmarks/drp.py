@@ -7,12 +7,16 @@
 2. The figure-3.1 experiment on ``--fig-graphs`` graphs x ``--fig-alphas``
    (all 12 combinations), both ways; the full experiment (100 graphs x 17
    alphas) is extrapolated linearly in the number of instances and said so.
-3. ``--nc-cache`` (instead of 1-2): NC with and without the append-builder tour
-   cache, side by side in one process, on ``--cc-graphs`` graphs of
-   ``--cc-nodes`` nodes x ``--cc-alphas`` (default: the figure's 17 values),
-   for ``--cc-builders``; checks the clusters are identical.
+3. ``--nc-cache`` (instead of 1-2): NC variants side by side in one process, on
+   ``--cc-graphs`` graphs of ``--cc-nodes`` nodes x ``--cc-alphas`` (default:
+   the figure's 17 values), for ``--cc-builders``; checks the clusters are
+   identical. ``--cc-rounds`` names the runs: ``cached``/``uncached`` (the
+   append-builder tour cache on/off) and, for GI, ``resume``/``scratch`` (each
+   union's tour resumed from the new cluster's GI trajectory, or rebuilt from
+   scratch: the code before the speed-up).
 
     python -m benchmarks.drp --nc-cache [--cc-graphs 3 --cc-nodes 100 --cc-builders ng,tl --json]
+    python -m benchmarks.drp --nc-cache --cc-builders gi --cc-rounds resume,scratch,resume,scratch
 
 The reference uses the same formulas (Eqs. 3.2-3.8), NumPy-vectorised over
 candidates within a step, Python loops over steps, NC re-evaluating only pairs
@@ -131,11 +135,19 @@ def np_solve(builder, clustering, D, beta, psi, alpha):
 # ----------------------------------------------------------------------------- benchmark
 
 
+#: NC variants for :func:`nc_cache_compare`: keyword arguments of ``jaxdc.drp.clustering.nc``.
+NC_MODES = {"cached": {"cache": True}, "uncached": {"cache": False}, "resume": {"resume": True},
+            "scratch": {"resume": False}}
+
+
 def nc_cache_compare(graphs, nodes, alphas, builders, rounds=("cached", "uncached", "cached", "uncached")):
-    """NC over ``graphs x alphas`` instances with and without the tour cache, timed in one process.
+    """NC over ``graphs x alphas`` instances in the variants ``rounds`` (:data:`NC_MODES`), timed in one process.
 
     The first run of each path includes its compilation; a repeated path is timed warm.
     """
+    bad = [r for r in rounds if r not in NC_MODES]
+    if bad:
+        raise ValueError(f"--cc-rounds must name runs from {sorted(NC_MODES)}, got {bad}")
     from eval.drp import graph_arrays
     from jaxdc.drp import clustering as cl
     from jaxdc.drp import world
@@ -149,7 +161,7 @@ def nc_cache_compare(graphs, nodes, alphas, builders, rounds=("cached", "uncache
         members, row = {}, {"builder": b, "graphs": graphs, "nodes": nodes, "alphas": len(alphas)}
         for k, mode in enumerate(rounds):
             t0 = time.perf_counter()
-            m = cl.nc(b, D, beta, psi, gidx, al, cache=(mode == "cached"))
+            m = cl.nc(b, D, beta, psi, gidx, al, **NC_MODES[mode])
             dt = time.perf_counter() - t0
             tag = mode + ("_warm" if mode in rounds[:k] else "_first")
             row[f"{tag}_s"] = dt
@@ -157,7 +169,8 @@ def nc_cache_compare(graphs, nodes, alphas, builders, rounds=("cached", "uncache
                 assert (members[mode] == m).all()
             members[mode] = m
             print(json.dumps({"builder": b, tag: dt}), file=sys.stderr)
-        row["identical_clusters"] = bool((members["cached"] == members["uncached"]).all())
+        ms = list(members.values())
+        row["identical_clusters"] = bool(all((x == ms[0]).all() for x in ms[1:]))
         rows.append(row)
     return rows
 

@@ -252,7 +252,7 @@ class _TourCache:
         return _combine(self.collected[s], self.p_return[s], alpha)
 
 
-def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=True):
+def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=False):
     """Algorithm 1 (NC) with ``BuildTour'_criterion`` as evaluator, for many instances at once.
 
     Args:
@@ -270,7 +270,9 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=T
         the partial tour at the step where a node of ``C_k`` first cuts in:
         GI's scores depend on the partial tour only, so the steps before are
         the same (:func:`jaxdc.drp.tours.gi_trajectory`). Same clusters as
-        ``resume=False``, which rebuilds every union from scratch.
+        ``resume=False`` (the default, which rebuilds every union from
+        scratch); measured *slower* on 100-node graphs (docs/drp.md, Speed),
+        since a node of ``C_k`` near the base cuts in at the first steps.
 
     Returns:
       ``member [I, n+1, n+1]`` bool: ``member[i, s]`` is the cluster in slot ``s``
