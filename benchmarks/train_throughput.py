@@ -319,6 +319,11 @@ def sb3_available() -> bool:
 
 
 # -- the run ---------------------------------------------------------------------------------
+def _save_partial(out_dir: Path, rows: list[dict]) -> None:
+    """The rows so far, in ``train_throughput.partial.json`` (a long run cut short keeps them)."""
+    atomic_write_json(out_dir / "train_throughput.partial.json", {"rows": rows})
+
+
 def run(args) -> dict:
     load_start = os.getloadavg()[0]
     repeats = args.repeats
@@ -332,12 +337,14 @@ def run(args) -> dict:
                 log(f"{row['impl']:>14} {layout:>4} envs={b:<4} {row['steps_per_s']:>10,.0f} steps/s "
                     f"(compile {row['compile_s']:.1f} s)")
                 rows.append(row)
+                _save_partial(args.out_dir, rows)
         if args.sb3:
             for vec_env, threads in ((v, t) for v in args.sb3_vec_envs for t in THREADS):
                 row = bench_sb3(b, threads, vec_env, args.sb3_chunk_steps, repeats)
                 log(f"{row['impl']:>14} thr={row['threads']:<11} envs={b:<4} {row['steps_per_s']:>10,.0f} steps/s "
                     f"(env alone {row['env_only_steps_per_s']:,.0f})")
                 rows.append(row)
+                _save_partial(args.out_dir, rows)
     dcg = None
     if args.dcg:
         try:
@@ -528,6 +535,7 @@ def main(argv=None) -> dict:
     md = f"`{result['command']}`\n\n" + markdown(result)
     atomic_write_json(args.out_dir / "train_throughput.json", result)
     atomic_write(args.out_dir / "train_throughput.md", md + "\n")
+    (args.out_dir / "train_throughput.partial.json").unlink(missing_ok=True)
     if args.json:
         print(json.dumps(result))
         log(md)

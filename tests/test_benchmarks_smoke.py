@@ -152,7 +152,7 @@ def test_train_throughput_quick(tmp_path, capsys):
     assert json.loads((tmp_path / "train_throughput.json").read_text())["rows"] == result["rows"]
     md = (tmp_path / "train_throughput.md").read_text()
     assert md.startswith("`python benchmarks/train_throughput.py --json --quick") and "| jaxdc cnn | loop |" in md
-    assert not list(tmp_path.glob(".tmp-*"))
+    assert not list(tmp_path.glob(".tmp-*")) and not (tmp_path / "train_throughput.partial.json").exists()
 
 
 def test_train_throughput_flops_and_ratios():
