@@ -103,3 +103,17 @@ def test_conn_reads_omns_prediction(nets):
     other = jax.tree_util.tree_map(lambda x: x, params)
     other["params"]["omn"]["opponent_out"]["bias"] = params["params"]["omn"]["opponent_out"]["bias"] + jnp.arange(9.0)
     assert not np.allclose(net.apply(params, obs)[0], net.apply(other, obs)[0])
+
+
+@pytest.mark.parametrize("name", ["vnn", "imnn", "emnn", "omn_conn", "omn_conn_envs1"])
+def test_shipped_parameters_fit_their_network(name):
+    """jaxdc/assets/dcg: every shipped file loads into make_dcg_net(net, history) for the standard setting."""
+    from jaxdc import pretrained
+
+    params, meta = pretrained.load(pretrained.shipped("dcg", name), problem="dcg")
+    assert meta["grid_size"] == 5 and meta["total_reward"] == 10 and meta["energy"] == 15.0
+    assert meta["strategies"] == ["patrol", "restricted", "with_fog"] and meta["steps"] == 1_000_000
+    assert meta["history"] == (0 if meta["net"] == "vnn" else 10) and meta["command"].startswith("python -m train.dcg")
+    net = make_dcg_net(meta["net"], meta["history"])
+    out = net.apply(params, jnp.zeros((2, 5, 5, 2 + meta["history"])))
+    assert out[0].shape == (2, 9) and bool(jnp.all(jnp.isfinite(out[0])))
