@@ -158,3 +158,22 @@ def test_clear_errors_for_bad_files(nets, tmp_path, capsys):
     empty = tmp_path / "empty"
     empty.mkdir()
     assert "no DCG parameter files" in _error(["figure", "5.6", "--nets-dir", str(empty)], capsys)
+
+
+def test_a_train_dcg_run_folder_plays_like_its_exported_parameters(nets, tmp_path, capsys):
+    """--checkpoint RUN_FOLDER restores the latest orbax checkpoint of train.dcg and evaluates its parameters."""
+    from jaxdc import checkpoint
+    from jaxdc.dcg import learned
+
+    blob = os.path.join(nets, "omn_conn.msgpack")
+    exported = learned.load(blob)
+    meta = dict(_meta("omn_conn"), format=1, algorithm={"total_steps": 64, "num_envs": 2, "t_max": 4})
+    meta.pop("steps")
+    state = learned.train_state_template(exported.net, meta, "test").replace(params=exported.params)
+    checkpoint.save(str(tmp_path / "run" / "checkpoints"), 16, state, meta)
+    argv = ["--episodes", EPISODES, "--json", "--out", str(tmp_path)]
+    from_run = json.loads(_run(["--checkpoint", str(tmp_path / "run")] + argv, capsys).out)
+    from_file = json.loads(_run(["--checkpoint", blob] + argv, capsys).out)
+    for key in ("reward", "rpe", "steps", "opponent_accuracy", "per_strategy"):
+        assert from_run[key] == from_file[key]
+    assert from_run["setting"]["trained_steps"] == 64

@@ -183,13 +183,16 @@ def _load_run(folder: str, net: str | None) -> Learned:
     name, module = _network_for(meta, source)
     if net is not None and name != net:
         raise ValueError(f"{source} holds a {name!r} network, not {net!r}")
-    state, meta = checkpoint.restore(ckpt, _train_state(module, meta, source), {"net": name})
+    state, meta = checkpoint.restore(ckpt, train_state_template(module, meta, source), {"net": name})
     meta = dict(meta, problem="dcg")
     return Learned(name, module, _check(name, module, state.params, meta, source), meta, ckpt)
 
 
-def _train_state(module, meta: dict, source: str):
-    """An initial A2C training state with the structure of the checkpointed one (the restore target)."""
+def train_state_template(module, meta: dict, source: str):
+    """An initial A2C training state with the structure of a ``train.dcg`` checkpoint of ``meta`` (the restore target).
+
+    Built like ``train.dcg`` builds it: the game of ``meta`` and ``A2CConfig(**meta["algorithm"])``.
+    """
     from jaxdc.agents import a2c
 
     learned = Learned(meta["net"], module, None, meta, source)
