@@ -17,6 +17,7 @@
 
     python -m benchmarks.drp --nc-cache [--cc-graphs 3 --cc-nodes 100 --cc-builders ng,tl --json]
     python -m benchmarks.drp --nc-cache --cc-builders gi --cc-rounds resume,scratch,resume,scratch
+    python -m benchmarks.drp --gi-resume-stats [--nodes 100 --alpha 20]   # why resume does not pay
 
 The reference uses the same formulas (Eqs. 3.2-3.8), NumPy-vectorised over
 candidates within a step, Python loops over steps, NC re-evaluating only pairs
@@ -175,6 +176,35 @@ def nc_cache_compare(graphs, nodes, alphas, builders, rounds=("cached", "uncache
     return rows
 
 
+def gi_resume_stats(nodes=100, alpha=20.0, seed=0):
+    """How much ``nc(..., resume=True)`` skips for GI on one graph: the share of resumed union builds that
+    restart at step 0 and the share of insertions skipped (counted at the ``evaluate_clusters`` calls)."""
+    from eval.drp import graph_arrays
+    from jaxdc.drp import clustering as cl
+    from jaxdc.drp import world
+
+    D, beta, psi = graph_arrays([world.generate(seed, n=nodes)])
+    acc = {"jobs": 0, "restart_at_0": 0, "skipped": 0, "insertions": 0}
+    inner = cl.evaluate_clusters
+
+    def counted(*a, resume=None, **k):
+        if resume is not None:
+            done = np.asarray(resume[1])
+            acc["jobs"] += len(done)
+            acc["restart_at_0"] += int((done == 0).sum())
+            acc["skipped"] += int(done.sum())
+            acc["insertions"] += int(np.asarray(a[6]).sum())
+        return inner(*a, resume=resume, **k)
+
+    cl.evaluate_clusters = counted
+    try:
+        cl.nc("gi", D, beta, psi, np.array([0]), np.array([alpha], np.float32), resume=True)
+    finally:
+        cl.evaluate_clusters = inner
+    return {**acc, "share_restart_at_0": acc["restart_at_0"] / acc["jobs"],
+            "share_skipped": acc["skipped"] / acc["insertions"]}
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--nodes", type=int, default=100)
@@ -191,7 +221,12 @@ def main(argv=None):
     p.add_argument("--cc-builders", default="ng,tl")
     p.add_argument("--cc-rounds", default="cached,uncached,cached,uncached",
                    help="order of the runs; a repeated path is timed warm")
+    p.add_argument("--gi-resume-stats", action="store_true",
+                   help="only: how much NC+GI with resume=True skips on one --nodes graph at --alpha")
     args = p.parse_args(argv)
+    if args.gi_resume_stats:
+        print(json.dumps(gi_resume_stats(args.nodes, args.alpha)))
+        return
     if args.nc_cache:
         rows = nc_cache_compare(args.cc_graphs, args.cc_nodes, [float(a) for a in args.cc_alphas.split(",")],
                                 args.cc_builders.split(","), tuple(args.cc_rounds.split(",")))
