@@ -67,7 +67,7 @@ def _strategies(text):
     try:
         return tuple(s.name for s in get_strategies(text))
     except (TypeError, ValueError) as e:
-        raise argparse.ArgumentTypeError(f"--strategies: {e}") from None
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def _add_network(p, required=True):
@@ -114,7 +114,7 @@ def figure_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m eval.dcg figure",
                                 description="Re-make the thesis' DCG bar charts (Figs. 5.6-5.19) with the "
                                             "thesis' claims beside ours.")
-    p.add_argument("figure", choices=sorted(FIGURES, key=float) + ["all"],
+    p.add_argument("figure", choices=sorted(FIGURES, key=lambda f: tuple(map(int, f.split(".")))) + ["all"],
                    help="a thesis figure (its pair is made with it: 5.6 and 5.7 are one experiment)")
     p.add_argument("--episodes", type=_positive_int("--episodes"), default=10_000)
     p.add_argument("--seed", type=int, default=0)
