@@ -88,3 +88,57 @@ def shipped(problem: str, name: str) -> str:
             if os.path.isdir(folder) else []
         raise ValueError(f"no shipped {problem} parameters named {name!r}; available: {have}")
     return path
+
+
+def shipped_names(problem: str) -> list[str]:
+    """Names of the shipped parameter files of ``problem`` (``jaxdc/assets/<problem>/*.msgpack``)."""
+    folder = os.path.join(ASSETS, problem)
+    if not os.path.isdir(folder):
+        return []
+    return sorted(f[: -len(".msgpack")] for f in os.listdir(folder) if f.endswith(".msgpack"))
+
+
+def load_trained(path, problem: str, nets, restore_target, net: str | None = None, check_meta=None):
+    """``(net_name, params, metadata, source)`` of a trained network, from a file or a training run.
+
+    ``path`` is a parameter file of :func:`save` (``.msgpack``, suffix
+    optional) or a run folder of ``python -m train.<problem>`` (its
+    ``checkpoints/`` subfolder, or an orbax checkpoint folder itself; the latest
+    step is read). The stored ``problem`` must be ``problem``, the stored
+    network one of ``nets`` and, if given, ``net``; ``check_meta(meta, source)``
+    may refuse more (e.g. another grid size). A run's parameters are restored
+    into ``restore_target(name, meta, source)``, an initial training state of the
+    same structure. Each failure is a ``ValueError`` that names the source.
+    """
+    from jaxdc import checkpoint
+
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        ckpt = os.path.join(path, "checkpoints")
+        ckpt = ckpt if os.path.isdir(ckpt) else path
+        source = f"checkpoint {path!r}"
+        if not checkpoint.steps(ckpt):
+            raise ValueError(f"{source}: no orbax checkpoint found (expected a train.{problem} run folder "
+                             "with checkpoints/, or a .msgpack parameter file)")
+        meta = dict(checkpoint.read_metadata(ckpt), problem=problem)
+    else:
+        blob, _ = _paths(path)
+        if not os.path.isfile(blob):
+            raise ValueError(f"checkpoint {path!r} not found: expected a train.{problem} run folder or a .msgpack "
+                             "parameter file (jaxdc.pretrained)")
+        source = f"parameter file {blob}"
+        meta = read_metadata(blob)
+        if meta.get("problem") != problem:
+            raise ValueError(f"{source} is for problem {meta.get('problem')!r}, not {problem!r}")
+    name = meta.get("net")
+    if name not in nets:
+        raise ValueError(f"{source}: metadata names net {name!r}, not one of the {problem} networks {tuple(nets)}")
+    if net is not None and name != net:
+        raise ValueError(f"{source} holds a {name!r} network, not {net!r}")
+    if check_meta is not None:
+        check_meta(meta, source)
+    if os.path.isdir(path):
+        state, meta = checkpoint.restore(ckpt, restore_target(name, meta, source), {"net": name})
+        return name, state.params, dict(meta, problem=problem), ckpt
+    params, meta = load(blob, problem=problem, net=name)
+    return name, params, meta, blob

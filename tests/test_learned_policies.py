@@ -83,7 +83,7 @@ def test_learned_policy_cli_json_like_a_navigator(tmp_path, capsys):
 
 def test_checkpoint_of_another_shape_or_net_is_refused(tmp_path, capsys):
     enn = _export(tmp_path, "enn")
-    assert "holds a 'enn' network, but --policy asks for 'linear'" in _fail(
+    assert "holds a 'enn' network, not 'linear'" in _fail(
         ["--policy", "linear", "--checkpoint", enn], capsys)
     assert "trained on a 5x5 grid; it cannot play a 6x6 grid" in _fail(
         ["--policy", "enn", "--checkpoint", enn, "--grid-size", "6"], capsys)
@@ -126,7 +126,7 @@ def test_run_folder_of_train_dcp(tmp_path, capsys):
     capsys.readouterr()
     learned = learned_lib.load(run, net="linear")
     assert learned.setting()["grid_size"] == 5 and learned.setting()["total_reward"] == 6
-    assert "holds a 'linear' network, but --policy asks for 'enn'" in _fail(
+    assert "holds a 'linear' network, not 'enn'" in _fail(
         ["--policy", "enn", "--checkpoint", str(run)], capsys)
     with pytest.raises(ValueError, match="cannot play a 6x6 grid"):
         learned_lib.load(run, grid_size=6)

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-import os
 from typing import Any
 
 import jax
@@ -130,14 +129,6 @@ class Learned:
                 f"{self.steps or '?'} steps, seed {self.metadata.get('seed', '?')} ({self.source})")
 
 
-def _network_for(meta: dict, source: str):
-    name = meta.get("net")
-    if name not in NETS:
-        raise ValueError(f"{source}: metadata names net {name!r}, not a DCG network {NETS}")
-    history = meta.get("history", DEFAULT_SETTING["history"])
-    return name, make_network(name, history)
-
-
 def _check(name, net, params, meta, source):
     n = meta.get("grid_size", DEFAULT_SETTING["grid_size"])
     k = meta.get("history", DEFAULT_SETTING["history"])
@@ -149,43 +140,15 @@ def _check(name, net, params, meta, source):
 def load(path, net: str | None = None) -> Learned:
     """Load a trained DCG network from a parameter file (``.msgpack``) or a ``train.dcg`` run folder.
 
-    ``net``, when given, must be the stored network's name (else ``ValueError``).
+    ``net``, when given, must be the stored network's name (else ``ValueError``;
+    :func:`jaxdc.pretrained.load_trained`).
     """
-    path = os.fspath(path)
-    if os.path.isdir(path):
-        return _load_run(path, net)
-    blob = path if path.endswith(".msgpack") else path + ".msgpack"
-    if not os.path.isfile(blob):
-        raise ValueError(f"checkpoint {path!r} not found: expected a train.dcg run folder or a .msgpack "
-                         "parameter file (jaxdc.pretrained)")
-    meta = pretrained.read_metadata(blob)
-    if meta.get("problem") != "dcg":
-        raise ValueError(f"parameter file {blob} is for problem {meta.get('problem')!r}, not 'dcg'")
-    name, module = _network_for(meta, blob)
-    if net is not None and name != net:
-        raise ValueError(f"parameter file {blob} holds a {name!r} network, not {net!r}")
-    params, meta = pretrained.load(blob, problem="dcg", net=name)
-    return Learned(name, module, _check(name, module, params, meta, blob), meta, blob)
+    def target(name, meta, source):
+        return train_state_template(make_network(name, meta.get("history", DEFAULT_SETTING["history"])), meta, source)
 
-
-def _load_run(folder: str, net: str | None) -> Learned:
-    """The latest checkpoint of a ``train.dcg`` run folder (or of its ``checkpoints/`` subfolder)."""
-    from jaxdc import checkpoint
-
-    ckpt = os.path.join(folder, "checkpoints")
-    if not os.path.isdir(ckpt):
-        ckpt = folder
-    if not checkpoint.steps(ckpt):
-        raise ValueError(f"checkpoint {folder!r}: no orbax checkpoint found (expected a train.dcg run folder "
-                         "with checkpoints/, or a .msgpack parameter file)")
-    meta = checkpoint.read_metadata(ckpt)
-    source = f"checkpoint {folder!r}"
-    name, module = _network_for(meta, source)
-    if net is not None and name != net:
-        raise ValueError(f"{source} holds a {name!r} network, not {net!r}")
-    state, meta = checkpoint.restore(ckpt, train_state_template(module, meta, source), {"net": name})
-    meta = dict(meta, problem="dcg")
-    return Learned(name, module, _check(name, module, state.params, meta, source), meta, ckpt)
+    name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net)
+    module = make_network(name, meta.get("history", DEFAULT_SETTING["history"]))
+    return Learned(name, module, _check(name, module, params, meta, source), meta, source)
 
 
 def train_state_template(module, meta: dict, source: str):
@@ -209,10 +172,7 @@ def train_state_template(module, meta: dict, source: str):
 
 def shipped_names() -> list[str]:
     """Names of the shipped DCG parameter files (``jaxdc/assets/dcg/*.msgpack``)."""
-    folder = os.path.join(pretrained.ASSETS, "dcg")
-    if not os.path.isdir(folder):
-        return []
-    return sorted(f[: -len(".msgpack")] for f in os.listdir(folder) if f.endswith(".msgpack"))
+    return pretrained.shipped_names("dcg")
 
 
 def shipped(name: str) -> Learned:

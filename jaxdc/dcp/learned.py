@@ -17,14 +17,13 @@ whose shapes do not fit the network on the requested grid raise a
 from __future__ import annotations
 
 import dataclasses
-import os
 from typing import Any
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from jaxdc import pretrained
+from jaxdc.core.tree_check import check_like
 
 #: Networks that have a learned DCP policy (``enn``, ``linear``, ``cnn``: A2C; ``eqn``: n-step Q).
 NETS = ("enn", "linear", "cnn", "eqn")
@@ -74,29 +73,18 @@ def init_params(net, grid_size: int, key=None):
 
 
 def check_params(net_name: str, net, params, grid_size: int, source: str):
-    """Raise a ``ValueError`` unless ``params`` has exactly the structure and shapes of ``net`` on ``grid_size``."""
-    want = jax.tree_util.tree_flatten_with_path(init_params(net, grid_size))[0]
-    got = jax.tree_util.tree_flatten_with_path(params)[0]
-    want_d = {jax.tree_util.keystr(k): np.shape(v) for k, v in want}
-    got_d = {jax.tree_util.keystr(k): np.shape(v) for k, v in got}
-    if want_d.keys() != got_d.keys():
-        raise ValueError(f"{source}: the parameters are not those of a {net_name} network "
-                         f"(missing {sorted(set(want_d) - set(got_d))[:3]}, "
-                         f"unexpected {sorted(set(got_d) - set(want_d))[:3]})")
-    for k, shape in want_d.items():
-        if got_d[k] != shape:
-            raise ValueError(f"{source}: {net_name} parameter {k} has shape {got_d[k]}, expected {shape} for a "
-                             f"{grid_size}x{grid_size} grid (was it trained on another grid size?)")
-    return jax.tree_util.tree_map(lambda x: jnp.asarray(x, jnp.float32), params)
+    """``params`` as float32 if it has exactly the structure and shapes of ``net`` on ``grid_size``, else ``ValueError``."""
+    return check_like(init_params(net, grid_size), params, source, f"a {net_name} network on a {grid_size}x{grid_size} grid",
+                      "was it trained on another grid size?")
 
 
-def _check_expected(meta: dict, source: str, net: str | None, grid_size: int | None):
-    if net is not None and meta.get("net") != net:
-        raise ValueError(f"{source} holds a {meta.get('net')!r} network, but --policy asks for {net!r}")
-    have = meta.get("grid_size", DEFAULT_SETTING["grid_size"])
-    if grid_size is not None and have != grid_size:
-        raise ValueError(f"{source} was trained on a {have}x{have} grid; it cannot play a "
-                         f"{grid_size}x{grid_size} grid (grid_size={grid_size})")
+def _grid_checker(grid_size: int | None):
+    def check(meta: dict, source: str):
+        have = meta.get("grid_size", DEFAULT_SETTING["grid_size"])
+        if grid_size is not None and have != grid_size:
+            raise ValueError(f"{source} was trained on a {have}x{have} grid; it cannot play a "
+                             f"{grid_size}x{grid_size} grid (grid_size={grid_size})")
+    return check
 
 
 def load(path, net: str | None = None, grid_size: int | None = None) -> Learned:
@@ -104,50 +92,16 @@ def load(path, net: str | None = None, grid_size: int | None = None) -> Learned:
 
     ``net`` and ``grid_size``, when given, must match the stored metadata
     (else a ``ValueError`` names both values); the parameters must have the
-    shapes of that network on that grid.
+    shapes of that network on that grid (:func:`jaxdc.pretrained.load_trained`).
     """
-    path = os.fspath(path)
-    if os.path.isdir(path):
-        return _load_run(path, net, grid_size)
-    blob = path if path.endswith(".msgpack") else path + ".msgpack"
-    if not os.path.isfile(blob):
-        raise ValueError(f"checkpoint {path!r} not found: expected a train.dcp run folder or a .msgpack "
-                         "parameter file (jaxdc.pretrained)")
-    meta = pretrained.read_metadata(blob)
-    if meta.get("problem") != "dcp":
-        raise ValueError(f"parameter file {blob} is for problem {meta.get('problem')!r}, not 'dcp'")
-    _check_expected(meta, blob, net, grid_size)
-    name = meta.get("net")
+    name, params, meta, source = pretrained.load_trained(path, "dcp", NETS, _train_state, net, _grid_checker(grid_size))
     module = make_network(name)
-    params, meta = pretrained.load(blob, problem="dcp", net=name)
-    params = check_params(name, module, params, meta.get("grid_size", DEFAULT_SETTING["grid_size"]), blob)
-    return Learned(name, module, params, meta, blob)
+    params = check_params(name, module, params, meta.get("grid_size", DEFAULT_SETTING["grid_size"]), source)
+    return Learned(name, module, params, meta, source)
 
 
-def _load_run(folder: str, net: str | None, grid_size: int | None) -> Learned:
-    """The latest checkpoint of a ``train.dcp`` run folder (or of its ``checkpoints/`` subfolder)."""
-    from jaxdc import checkpoint
-
-    ckpt = os.path.join(folder, "checkpoints")
-    if not os.path.isdir(ckpt):
-        ckpt = folder
-    if not checkpoint.steps(ckpt):
-        raise ValueError(f"checkpoint {folder!r}: no orbax checkpoint found (expected a train.dcp run folder "
-                         "with checkpoints/)")
-    meta = checkpoint.read_metadata(ckpt)
-    name = meta.get("net")
-    if name not in NETS:
-        raise ValueError(f"checkpoint {folder!r}: metadata names net {name!r}, not one of {NETS}")
-    _check_expected(meta, f"checkpoint {folder!r}", net, grid_size)
-    module = make_network(name)
-    target = _train_state(name, module, meta)
-    state, meta = checkpoint.restore(ckpt, target, {"net": name})
-    params = check_params(name, module, state.params, meta.get("grid_size", 8), f"checkpoint {folder!r}")
-    return Learned(name, module, params, dict(meta, problem="dcp"), ckpt)
-
-
-def _train_state(name: str, module, meta: dict):
-    """An initial training state with the structure of the checkpointed one (restore target)."""
+def _train_state(name: str, meta: dict, source: str):
+    """An initial training state with the structure of a ``train.dcp`` checkpoint of ``meta`` (restore target)."""
     from jaxdc.agents import a2c, nstep_q
     from jaxdc.core.paths import safest_paths
     from jaxdc.dcp import navigators
@@ -162,9 +116,9 @@ def _train_state(name: str, module, meta: dict):
     try:
         config = cls(**algo)
     except (TypeError, ValueError) as e:
-        raise ValueError(f"checkpoint metadata has an unusable algorithm configuration: {e}") from None
+        raise ValueError(f"{source}: the metadata has an unusable algorithm configuration: {e}") from None
     heur = navigators.batched_heuristics(env_params, safest_paths(env_params.risk))
-    trainer = (nstep_q if name == "eqn" else a2c).make_train(config, env, env_params, module, heur)
+    trainer = (nstep_q if name == "eqn" else a2c).make_train(config, env, env_params, make_network(name), heur)
     return trainer.init(jax.random.PRNGKey(0))
 
 
