@@ -25,13 +25,9 @@ TensorBoard event files into ``tb/`` (needs the ``tb`` extra: tensorboardX).
 from __future__ import annotations
 
 import argparse
-import csv
 import dataclasses
-import io
-import math
 import os
 import sys
-import tempfile
 import time
 
 import jax
@@ -46,44 +42,16 @@ from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import navigators
 from jaxdc.dcp.evaluate import summarize
-from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
+from jaxdc.io import atomic_write_json, enable_compilation_cache
 from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
+from train.common import EXIT_NAN, LAYOUTS, check_writable, nonnegative_float, positive, read_rows, write_rows
 
-#: Exit status of a run stopped by a NaN loss.
-EXIT_NAN = 3
-LAYOUTS = ("loop", "scan")
 #: Networks of the command line: the actor-critics train with A2C, EQN with n-step Q-learning.
 NETS = tuple(sorted(ACTOR_CRITICS)) + ("eqn",)
 LOSS_METRICS = ("loss", "policy_loss", "value_loss", "entropy", "q_mean", "epsilon")
 CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", *LOSS_METRICS, "train_episodes",
               "train_reward", "eval_reward", "eval_reward_sd", "eval_energy",
               "eval_rpe")
-
-
-def _positive(kind, name):
-    def parse(text):
-        try:
-            v = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number > 0, got {text!r}") from None
-        if not v > 0 or (kind is float and math.isinf(v)):
-            raise argparse.ArgumentTypeError(f"{name} must be > 0, got {text!r}")
-        return v
-
-    return parse
-
-
-def _nonnegative_float(name):
-    def parse(text):
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number >= 0, got {text!r}") from None
-        if not v >= 0:
-            raise argparse.ArgumentTypeError(f"{name} must be >= 0, got {text!r}")
-        return v
-
-    return parse
 
 
 def _seed_list(text):
@@ -114,78 +82,54 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--net", choices=NETS, default="enn",
                    help="network to train (enn, linear, cnn: A2C; eqn: n-step Q-learning)")
     p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default="high", help="risk preset (Table 4.2)")
-    p.add_argument("--grid-size", type=_positive(int, "--grid-size"), default=8)
-    p.add_argument("--total-reward", type=_positive(int, "--total-reward"), default=30)
-    p.add_argument("--energy", nargs=2, type=_positive(float, "--energy"), metavar=("INIT", "MAX"),
+    p.add_argument("--grid-size", type=positive(int, "--grid-size"), default=8)
+    p.add_argument("--total-reward", type=positive(int, "--total-reward"), default=30)
+    p.add_argument("--energy", nargs=2, type=positive(float, "--energy"), metavar=("INIT", "MAX"),
                    default=(8.0, 16.0), help="initial and maximal energy (Tables 4.3-4.8: 8 16)")
-    p.add_argument("--max-steps", type=_positive(int, "--max-steps"), default=1000, help="episode step cap")
-    p.add_argument("--steps", type=_positive(int, "--steps"), default=1_000_000,
+    p.add_argument("--max-steps", type=positive(int, "--max-steps"), default=1000, help="episode step cap")
+    p.add_argument("--steps", type=positive(int, "--steps"), default=1_000_000,
                    help="T_max: environment steps in total (the learning rate reaches 0 there)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--seeds", type=_seed_list, default=None,
                    help="several independent runs at once (vmapped), e.g. 0,1,2; replaces --seed")
-    p.add_argument("--devices", type=_positive(int, "--devices"), default=None,
+    p.add_argument("--devices", type=positive(int, "--devices"), default=None,
                    help="devices to split the environment batch over (default: all; --envs must be a multiple)")
-    p.add_argument("--envs", type=_positive(int, "--envs"), default=16, help="parallel environments")
-    p.add_argument("--t-max", type=_positive(int, "--t-max"), default=32, help="rollout length per update")
-    p.add_argument("--lr", type=_positive(float, "--lr"), default=1e-4, help="initial learning rate")
-    p.add_argument("--gamma", type=_nonnegative_float("--gamma"), default=0.99)
-    p.add_argument("--entropy", type=_nonnegative_float("--entropy"), default=A2CConfig.entropy_coef,
+    p.add_argument("--envs", type=positive(int, "--envs"), default=16, help="parallel environments")
+    p.add_argument("--t-max", type=positive(int, "--t-max"), default=32, help="rollout length per update")
+    p.add_argument("--lr", type=positive(float, "--lr"), default=1e-4, help="initial learning rate")
+    p.add_argument("--gamma", type=nonnegative_float("--gamma"), default=0.99)
+    p.add_argument("--entropy", type=nonnegative_float("--entropy"), default=A2CConfig.entropy_coef,
                    help="entropy bonus weight (default 0.01 as in A3C; 0 for the thesis' two loss terms)")
-    p.add_argument("--value-coef", type=_nonnegative_float("--value-coef"), default=A2CConfig.value_coef)
-    p.add_argument("--max-grad-norm", type=_positive(float, "--max-grad-norm"), default=None)
-    p.add_argument("--reset-slots", type=_positive(int, "--reset-slots"), default=None,
+    p.add_argument("--value-coef", type=nonnegative_float("--value-coef"), default=A2CConfig.value_coef)
+    p.add_argument("--max-grad-norm", type=positive(float, "--max-grad-norm"), default=None)
+    p.add_argument("--reset-slots", type=positive(int, "--reset-slots"), default=None,
                    help="fresh initial states drawn per step (default: one per environment)")
     g = p.add_argument_group("learner options beside Algorithm 10 (not in the thesis; see docs/learning.md)")
     g.add_argument("--gae-lambda", type=_unit_interval("--gae-lambda"), default=1.0,
                    help="lambda-returns / GAE (1: the n-step returns of Algorithm 10)")
     g.add_argument("--clip-eps", type=_unit_interval("--clip-eps", low_open=True), default=None,
                    help="PPO clipping of the probability ratio (default: none, plain policy gradient)")
-    g.add_argument("--epochs", type=_positive(int, "--epochs"), default=1, help="passes over each rollout")
-    g.add_argument("--minibatches", type=_positive(int, "--minibatches"), default=1,
+    g.add_argument("--epochs", type=positive(int, "--epochs"), default=1, help="passes over each rollout")
+    g.add_argument("--minibatches", type=positive(int, "--minibatches"), default=1,
                    help="shuffled minibatches per pass (must divide envs * t-max)")
     g.add_argument("--normalize-advantages", action="store_true", help="standardize advantages per minibatch")
-    p.add_argument("--target-every", type=_positive(int, "--target-every"), default=40_000,
+    p.add_argument("--target-every", type=positive(int, "--target-every"), default=40_000,
                    help="eqn: environment steps between target-network copies")
-    p.add_argument("--eval-epsilon", type=_nonnegative_float("--eval-epsilon"), default=nstep_q.EVAL_EPSILON,
+    p.add_argument("--eval-epsilon", type=nonnegative_float("--eval-epsilon"), default=nstep_q.EVAL_EPSILON,
                    help="eqn: epsilon of the evaluation policy (section 4.5.5: 0.05)")
     p.add_argument("--layout", choices=LAYOUTS, default="loop",
                    help="loop: one jitted update per Python iteration (faster on CPU); scan: updates in lax.scan")
     p.add_argument("--out", default=None, help="run folder (default runs/dcp-NET-RISK-sSEED)")
     p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
-    p.add_argument("--eval-every", type=_positive(int, "--eval-every"), default=100_000,
+    p.add_argument("--eval-every", type=positive(int, "--eval-every"), default=100_000,
                    help="environment steps between evaluations and checkpoints")
-    p.add_argument("--eval-episodes", type=_positive(int, "--eval-episodes"), default=500)
+    p.add_argument("--eval-episodes", type=positive(int, "--eval-episodes"), default=500)
     p.add_argument("--greedy-eval", action="store_true", help="evaluate the argmax policy instead of sampling")
-    p.add_argument("--keep", type=_positive(int, "--keep"), default=3, help="checkpoints to keep")
+    p.add_argument("--keep", type=positive(int, "--keep"), default=3, help="checkpoints to keep")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--tensorboard", action="store_true",
                    help="also write the metrics as TensorBoard event files into OUT/tb (needs tensorboardX)")
     return p
-
-
-def _check_writable(folder: str) -> None:
-    try:
-        os.makedirs(folder, exist_ok=True)
-        with tempfile.TemporaryFile(dir=folder):
-            pass
-    except OSError as e:
-        raise ValueError(f"output folder {folder!r} is not writable: {e}") from None
-
-
-def _read_rows(path: str, max_updates: int) -> list[dict]:
-    if not os.path.exists(path):
-        return []
-    with open(path, newline="") as f:
-        return [r for r in csv.DictReader(f) if int(r["updates"]) <= max_updates]
-
-
-def _write_rows(path: str, rows: list[dict]) -> None:
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=CSV_FIELDS, restval="")
-    w.writeheader()
-    w.writerows(rows)
-    atomic_write(path, buf.getvalue())
 
 
 #: Learner options beside Algorithm 10 and their defaults (the faithful learner).
@@ -276,7 +220,7 @@ class Run:
 
     def initial_state(self):
         a = self.args
-        _check_writable(self.out)
+        check_writable(self.out)
         state = self.trainer.init(self._keys())
         existing = checkpoint.steps(self.ckpt_dir)
         if not a.resume:
@@ -318,7 +262,7 @@ class Run:
         state = self.initial_state()
         update = int(np.asarray(state.update).reshape(-1)[0])
         paths = self._paths()
-        rows = [_read_rows(csv_path, update) for csv_path, _ in paths]
+        rows = [read_rows(csv_path, update) for csv_path, _ in paths]
         writers = [_tensorboard_writer(tb) for _, tb in paths] if a.tensorboard else []
         every = max(1, a.eval_every // cfg.batch_size)
         schedule = lr_schedule(cfg)
@@ -354,7 +298,7 @@ class Run:
                     writers[i].flush()
             checkpoint.save(self.ckpt_dir, update, state, self.metadata, keep=a.keep)
             for (csv_path, _), seed_rows in zip(paths, rows):
-                _write_rows(csv_path, seed_rows)
+                write_rows(csv_path, seed_rows, CSV_FIELDS)
             last = dict(rows[0][-1], per_seed=[(seed, r[-1]) for seed, r in zip(self.seeds, rows)])
             bar.set_postfix(eval_reward=" ".join(f"{r[-1]['eval_reward']:.2f}" for r in rows))
         bar.close()
