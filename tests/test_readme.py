@@ -19,4 +19,4 @@ def test_readme_python_blocks_run():
 def test_readme_has_the_two_setup_commands():
     text = README.read_text()
     assert "pip install -e . && python -m eval.dcp" in text
-    assert 'pip install -e ".[dev]" && python -m pytest' in text
+    assert 'pip install -e ".[dev,bench]" && python -m pytest' in text
