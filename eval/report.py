@@ -1,7 +1,13 @@
-"""Regenerate the DCP part of ``docs/results.md`` from the results folder.
+"""Regenerate ``docs/results.md`` from the results folder.
 
     python -m eval.dcp --table 4.3        # (and the other tables) fill results/dcp/
+    python -m eval.dcg figure all         # results/dcg/figure_*.md and docs/img/dcg_*.png
+    python benchmarks/train_throughput.py # results/benchmarks/
     python -m eval.report                 # writes docs/results.md
+
+The DCG figures and the benchmark tables are copied in as their commands wrote
+them (each names its command; image links are rewritten for ``docs/``); a
+section with no results yet says which command to run.
 
 Each table is shown with the command that produced it; the ``Δ/SE`` columns
 give ours minus the thesis in standard errors of the thesis' mean
@@ -18,6 +24,7 @@ import glob
 import json
 import math
 import os
+import re
 import sys
 
 from jaxdc.io import atomic_write
@@ -87,7 +94,46 @@ def incr_table(incr: dict) -> str:
     return "\n".join(lines)
 
 
-def build(results_dir: str, notes_path: str | None) -> str:
+#: Markdown tables written by the other commands, copied into the page: (section title, glob under results/,
+#: the command that makes them when there are none).
+SECTIONS = (
+    ("DCG (chapter 5): Figs. 5.6-5.19", "dcg/figure_*.md", "python -m eval.dcg figure all"),
+    ("Benchmarks", "benchmarks/**/*.md", "python benchmarks/env_throughput.py; python benchmarks/train_throughput.py"),
+)
+
+
+def _relink(text: str, source: str, out_dir: str) -> str:
+    """Rewrite relative image/link targets of a markdown file at ``source`` for a page written in ``out_dir``."""
+    def fix(m):
+        target = m.group(2)
+        if "://" in target or target.startswith(("/", "#")):
+            return m.group(0)
+        new = os.path.relpath(os.path.normpath(os.path.join(os.path.dirname(source), target)), out_dir)
+        return f"{m.group(1)}({new})"
+
+    return re.sub(r"(!?\[[^\]]*\])\(([^)\s]+)\)", fix, text)
+
+
+def copied_sections(results_dir: str, out_dir: str) -> list[str]:
+    """The DCG figure and benchmark tables found in ``results_dir`` (each carries its command), or what to run."""
+    parts = []
+    for title, pattern, command in SECTIONS:
+        files = sorted(glob.glob(os.path.join(results_dir, pattern), recursive=True))
+        parts += [f"## {title}", ""]
+        if not files:
+            parts += [f"No results yet: run `{command}`, then `python -m eval.report`.", ""]
+        for path in files:
+            with open(path) as f:
+                text = f.read().strip()
+            if "`python" not in text:  # a table written without its command: name the script that writes it
+                text = f"`python benchmarks/{os.path.basename(path)[:-3]}.py`\n\n{text}"
+            parts += [f"<!-- from {os.path.relpath(path, results_dir)} -->", _relink(text, path, out_dir), ""]
+    parts += ["## DRP (chapter 3)", "",
+              "The DRP figures (3.1-3.5), their commands and the optimality gaps are on [drp.md](drp.md).", ""]
+    return parts
+
+
+def build(results_dir: str, notes_path: str | None, out_dir: str = "docs") -> str:
     files = sorted(glob.glob(os.path.join(results_dir, "dcp", "table_*.json")),
                    key=lambda p: tuple(int(x) for x in os.path.basename(p)[6:-5].split(".")))
     if not files:
@@ -100,7 +146,8 @@ def build(results_dir: str, notes_path: str | None) -> str:
             parts += [dcp_table(json.load(f)), ""]
     if notes_path and os.path.exists(notes_path):
         with open(notes_path) as f:
-            parts += [f.read()]
+            parts += [f.read(), ""]
+    parts += copied_sections(results_dir, out_dir)
     return "\n".join(parts)
 
 
@@ -112,7 +159,7 @@ def main(argv=None) -> int:
     p.add_argument("--out", default=os.path.join("docs", "results.md"))
     args = p.parse_args(argv)
     try:
-        page = build(args.results, args.notes)
+        page = build(args.results, args.notes, os.path.dirname(os.path.abspath(args.out)))
     except FileNotFoundError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -44,3 +44,32 @@ def test_report_shows_learned_row_source_and_incr(tmp_path):
     assert "Learned row `enn`: parameters `jaxdc/assets/dcp/enn.msgpack`, trained by `python -m train.dcp --net enn`" \
         in page
     assert "| safe_reward | 13.94 | 12.50 | -19.49 | — | 38.38 | 40.00 |" in page
+
+
+def test_report_copies_dcg_figures_and_benchmarks_with_links_fixed(tmp_path):
+    res = tmp_path / "results"
+    (res / "dcp").mkdir(parents=True)
+    (res / "dcp" / "table_4.8.json").write_text(json.dumps(
+        {"table": "4.8", "caption": "c", "command": "python -m eval.dcp --table 4.8", "thesis": {}, "ours": {}}))
+    (res / "dcg").mkdir()
+    (res / "dcg" / "figure_standard.md").write_text(
+        "### Fig 5.6\n\n`python -m eval.dcg figure all`\n\n![f](../../docs/img/dcg_fig5_6.png)\n")
+    (res / "benchmarks" / "t16").mkdir(parents=True)
+    (res / "benchmarks" / "t16" / "train_throughput.md").write_text("`python benchmarks/train_throughput.py`\n| a |\n")
+    docs = tmp_path / "docs"
+    assert report.main(["--results", str(res), "--out", str(docs / "results.md"), "--notes", "none"]) == 0
+    page = (docs / "results.md").read_text()
+    assert "## DCG (chapter 5)" in page and "`python -m eval.dcg figure all`" in page
+    assert "![f](img/dcg_fig5_6.png)" in page  # relative to docs/, where the page lives
+    assert "`python benchmarks/train_throughput.py`" in page
+    assert "[drp.md](drp.md)" in page
+
+
+def test_report_says_what_to_run_for_missing_sections(tmp_path):
+    res = tmp_path / "results"
+    (res / "dcp").mkdir(parents=True)
+    (res / "dcp" / "table_4.8.json").write_text(json.dumps(
+        {"table": "4.8", "caption": "c", "command": "python -m eval.dcp --table 4.8", "thesis": {}, "ours": {}}))
+    out = tmp_path / "r.md"
+    assert report.main(["--results", str(res), "--out", str(out), "--notes", "none"]) == 0
+    assert "No results yet: run `python -m eval.dcg figure all`" in out.read_text()
