@@ -114,6 +114,16 @@ def write_rows(path: str, rows: list[dict], fields) -> None:
     atomic_write(path, buf.getvalue())
 
 
+def tensorboard_writer(folder: str | None):
+    """A tensorboardX ``SummaryWriter`` into ``folder`` (``None``: only check the import), or a clear error
+    naming the extra to install."""
+    try:
+        from tensorboardX import SummaryWriter
+    except ImportError:
+        raise ValueError("--tensorboard needs tensorboardX: pip install 'jaxdc[tb]' (or tensorboardX)") from None
+    return None if folder is None else SummaryWriter(folder)
+
+
 class TrainingRun:
     """The loop of a training command line. A subclass sets, in its constructor:
 
@@ -122,20 +132,45 @@ class TrainingRun:
     ``run`` of :func:`jaxdc.agents.a2c.make_train`), ``metadata`` (checked on
     ``--resume``), ``loss_metrics`` (training metrics averaged into each row) and
     ``csv_fields``; and defines :meth:`evaluate`.
+
+    Several seeds in one vmapped program (``train.dcp --seeds``): the subclass
+    sets ``seeds`` and ``multi = True``, overrides :meth:`init_key` (stacked
+    keys) and :meth:`evaluate` returns one dict per seed; each seed gets its own
+    CSV (and TensorBoard folder with ``--tensorboard``), one checkpoint holds all.
     """
 
     postfix_key = "eval_reward"
+    multi = False
 
-    def evaluate(self, params, update: int) -> dict:  # pragma: no cover - abstract
-        """The evaluation columns of the row at ``update``."""
+    def evaluate(self, params, update: int):  # pragma: no cover - abstract
+        """The evaluation columns of the row at ``update`` (a list of them, one per seed, if ``multi``)."""
         raise NotImplementedError
+
+    @property
+    def run_seeds(self) -> list[int]:
+        return list(getattr(self, "seeds", None) or [self.args.seed])
+
+    def init_key(self):
+        """The key of :meth:`trainer.init` (stacked per seed when ``multi``)."""
+        return jax.random.PRNGKey(self.args.seed)
+
+    def place(self, state):
+        """Put a restored state on the devices (identity unless the subclass shards it)."""
+        return state
+
+    def paths(self) -> list[tuple[str, str]]:
+        """``(metrics CSV, TensorBoard folder)`` per seed."""
+        if not self.multi:
+            return [(os.path.join(self.out, "metrics.csv"), os.path.join(self.out, "tb"))]
+        return [(os.path.join(self.out, f"metrics-s{s}.csv"), os.path.join(self.out, "tb", f"s{s}"))
+                for s in self.run_seeds]
 
     # -- state --------------------------------------------------------------------------
     def initial_state(self):
         """A fresh state (writes ``config.json``), or with ``--resume`` the latest checkpoint's."""
         a = self.args
         check_writable(self.out)
-        state = self.trainer.init(jax.random.PRNGKey(a.seed))
+        state = self.trainer.init(self.init_key())
         existing = checkpoint.steps(self.ckpt_dir)
         if not a.resume:
             if existing:
@@ -146,11 +181,12 @@ class TrainingRun:
         if not existing:
             raise ValueError(f"--resume: no checkpoint found in {self.ckpt_dir}")
         state, _ = checkpoint.restore(self.ckpt_dir, state, self.metadata)
-        return state
+        return self.place(state)
 
     # -- the loop -----------------------------------------------------------------------
     def train(self) -> dict:
-        """Train to the end (or to a NaN loss); return the last metrics row with ``"status"``.
+        """Train to the end (or to a NaN loss); return the last metrics row (of the first seed) with ``"status"``
+        (and ``per_seed``: ``(seed, row)`` pairs).
 
         The final training state is kept in ``self.final_state``.
         """
@@ -158,14 +194,15 @@ class TrainingRun:
 
         a, cfg = self.args, self.config
         state = self.initial_state()
-        update = int(state.update)
-        csv_path = os.path.join(self.out, "metrics.csv")
-        rows = read_rows(csv_path, update)
+        update = int(np.asarray(state.update).reshape(-1)[0])
+        paths = self.paths()
+        rows = [read_rows(csv_path, update) for csv_path, _ in paths]
+        writers = [tensorboard_writer(tb) for _, tb in paths] if getattr(a, "tensorboard", False) else []
         every = max(1, a.eval_every // cfg.batch_size)
         schedule = lr_schedule(cfg)
         bar = tqdm(total=cfg.num_updates * cfg.batch_size, initial=update * cfg.batch_size, unit="step",
                    unit_scale=True, disable=a.no_progress, dynamic_ncols=True)
-        row = {"status": "done", "updates": update}
+        last = {"status": "done", "updates": update}
         self.final_state = state
         while update < cfg.num_updates:
             n = min(every - update % every, cfg.num_updates - update)
@@ -179,22 +216,35 @@ class TrainingRun:
                       f"The last good checkpoint is in {self.ckpt_dir}", file=sys.stderr)
                 return {"status": "nan", "updates": update}
             update += n
-            episodes = int(np.sum(metrics["episodes"]))
-            row = {"env_steps": update * cfg.batch_size, "updates": update, "wall_s": round(wall, 3),
-                   "steps_per_s": round(n * cfg.batch_size / wall, 1), "lr": float(schedule(update)),
-                   **{k: float(np.mean(metrics[k])) for k in self.loss_metrics if k in metrics},
-                   "train_episodes": episodes,
-                   "train_reward": float(np.sum(metrics["episode_reward_sum"]) / max(episodes, 1)),
-                   **self.evaluate(state.params, update)}
-            rows.append(row)
+            evals = self.evaluate(state.params, update)
+            evals = [evals] if isinstance(evals, dict) else evals
+            for i, (seed_rows, ev) in enumerate(zip(rows, evals)):
+                m = jax.tree_util.tree_map(lambda x: x[i], metrics) if self.multi else metrics
+                episodes = int(np.sum(m["episodes"]))
+                row = {"env_steps": update * cfg.batch_size, "updates": update, "wall_s": round(wall, 3),
+                       "steps_per_s": round(n * cfg.batch_size / wall, 1), "lr": float(schedule(update)),
+                       **{k: float(np.mean(m[k])) for k in self.loss_metrics if k in m},
+                       "train_episodes": episodes,
+                       "train_reward": float(np.sum(m["episode_reward_sum"]) / max(episodes, 1)), **ev}
+                seed_rows.append(row)
+                if writers:
+                    for k, v in row.items():
+                        if k not in ("env_steps", "updates") and isinstance(v, (int, float)):
+                            writers[i].add_scalar(k, v, row["env_steps"])
+                    writers[i].flush()
             checkpoint.save(self.ckpt_dir, update, state, self.metadata, keep=a.keep)
-            write_rows(csv_path, rows, self.csv_fields)
-            bar.set_postfix({self.postfix_key: f"{row[self.postfix_key]:.3f}"})
+            for (csv_path, _), seed_rows in zip(paths, rows):
+                write_rows(csv_path, seed_rows, self.csv_fields)
+            last = dict(rows[0][-1], per_seed=[(seed, r[-1]) for seed, r in zip(self.run_seeds, rows)])
+            bar.set_postfix({self.postfix_key: " ".join(f"{r[-1][self.postfix_key]:.3f}" for r in rows)})
             self.final_state = state
         bar.close()
-        return dict(row, status="done")
+        for w in writers:
+            w.close()
+        return dict(last, status="done")
 
     def _updates(self, state, n: int, bar):
+        """``n`` updates; metrics ``[n]`` (``[seeds, n]`` with several seeds)."""
         if self.args.layout == "scan":
             state, metrics = self.trainer.run(state, n)
             bar.update(n * self.config.batch_size)
@@ -204,4 +254,4 @@ class TrainingRun:
             state, m = self.trainer.update(state)
             history.append(m)
             bar.update(self.config.batch_size)
-        return state, jax.tree_util.tree_map(lambda *x: np.stack(x), *jax.device_get(history))
+        return state, jax.tree_util.tree_map(lambda *x: np.stack(x, axis=-1), *jax.device_get(history))

@@ -28,23 +28,20 @@ import argparse
 import dataclasses
 import os
 import sys
-import time
 
 import jax
-import numpy as np
 
-from jaxdc import checkpoint
 from jaxdc.agents import a2c, nstep_q, parallel
-from jaxdc.agents.a2c import A2CConfig, lr_schedule
+from jaxdc.agents.a2c import A2CConfig
 from jaxdc.core import grid
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import navigators
 from jaxdc.dcp.evaluate import summarize
-from jaxdc.io import atomic_write_json, enable_compilation_cache
+from jaxdc.io import enable_compilation_cache
 from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
-from train.common import EXIT_NAN, LAYOUTS, check_writable, nonnegative_float, positive, read_rows, write_rows
+from train.common import EXIT_NAN, LAYOUTS, TrainingRun, nonnegative_float, positive, tensorboard_writer
 
 #: Networks of the command line: the actor-critics train with A2C, EQN with n-step Q-learning.
 NETS = tuple(sorted(ACTOR_CRITICS)) + ("eqn",)
@@ -143,25 +140,18 @@ def _algorithm_metadata(config) -> dict:
             if not (k in LEARNER_OPTIONS and v == LEARNER_OPTIONS[k])}
 
 
-def _tensorboard_writer(folder: str):
-    """A tensorboardX ``SummaryWriter`` into ``folder`` (``None``: only check the import), or a clear error
-    naming the extra to install."""
-    try:
-        from tensorboardX import SummaryWriter
-    except ImportError:
-        raise ValueError("--tensorboard needs tensorboardX: pip install 'jaxdc[tb]' (or tensorboardX)") from None
-    return None if folder is None else SummaryWriter(folder)
-
-
-class Run:
+class Run(TrainingRun):
     """One training command: settings, the (data parallel, maybe multi-seed) trainer, evaluation, checkpoints."""
+
+    loss_metrics = LOSS_METRICS
+    csv_fields = CSV_FIELDS
 
     def __init__(self, args):
         if args.energy[0] > args.energy[1]:
             raise ValueError(f"--energy: initial energy {args.energy[0]} exceeds the maximum {args.energy[1]}")
         self.args = args
         if args.tensorboard:
-            _tensorboard_writer(None)  # fail before any work if tensorboardX is missing
+            tensorboard_writer(None)  # fail before any work if tensorboardX is missing
         self.seeds = args.seeds or [args.seed]
         self.multi = len(self.seeds) > 1
         tag = "-".join(map(str, self.seeds))
@@ -218,20 +208,10 @@ class Run:
         keys = [jax.random.PRNGKey(s + offset) for s in self.seeds]
         return jax.numpy.stack(keys) if self.multi else keys[0]
 
-    def initial_state(self):
-        a = self.args
-        check_writable(self.out)
-        state = self.trainer.init(self._keys())
-        existing = checkpoint.steps(self.ckpt_dir)
-        if not a.resume:
-            if existing:
-                raise ValueError(f"{self.ckpt_dir} already holds checkpoints {existing}; "
-                                 "pass --resume to continue or choose another --out")
-            atomic_write_json(os.path.join(self.out, "config.json"), self.metadata)
-            return state
-        if not existing:
-            raise ValueError(f"--resume: no checkpoint found in {self.ckpt_dir}")
-        state, _ = checkpoint.restore(self.ckpt_dir, state, self.metadata)
+    def init_key(self):
+        return self._keys()
+
+    def place(self, state):
         return parallel.place(state, self.mesh, seed_axis=self.multi)
 
     # -- one evaluation per seed ------------------------------------------------------------
@@ -246,79 +226,6 @@ class Run:
             rows.append({"eval_reward": s["reward"]["mean"], "eval_reward_sd": s["reward"]["sd"],
                          "eval_energy": s["energy"]["mean"], "eval_rpe": s["rpe"]["mean"]})
         return rows
-
-    def _paths(self):
-        if not self.multi:
-            return [(os.path.join(self.out, "metrics.csv"), os.path.join(self.out, "tb"))]
-        return [(os.path.join(self.out, f"metrics-s{s}.csv"), os.path.join(self.out, "tb", f"s{s}"))
-                for s in self.seeds]
-
-    # -- the loop ---------------------------------------------------------------------------
-    def train(self) -> dict:
-        """Train to the end (or to a NaN loss); return the last metrics row (of the first seed) with ``"status"``."""
-        from tqdm import tqdm
-
-        a, cfg = self.args, self.config
-        state = self.initial_state()
-        update = int(np.asarray(state.update).reshape(-1)[0])
-        paths = self._paths()
-        rows = [read_rows(csv_path, update) for csv_path, _ in paths]
-        writers = [_tensorboard_writer(tb) for _, tb in paths] if a.tensorboard else []
-        every = max(1, a.eval_every // cfg.batch_size)
-        schedule = lr_schedule(cfg)
-        bar = tqdm(total=cfg.num_updates * cfg.batch_size, initial=update * cfg.batch_size, unit="step",
-                   unit_scale=True, disable=a.no_progress, dynamic_ncols=True)
-        last = {"status": "done", "updates": update}
-        while update < cfg.num_updates:
-            n = min(every - update % every, cfg.num_updates - update)
-            t0 = time.perf_counter()
-            state, metrics = self._updates(state, n, bar)
-            metrics = jax.device_get(metrics)
-            wall = time.perf_counter() - t0
-            if not np.all(np.isfinite(metrics["loss"])):
-                bar.close()
-                print(f"error: the loss became NaN/inf between updates {update} and {update + n}; stopping. "
-                      f"The last good checkpoint is in {self.ckpt_dir}", file=sys.stderr)
-                return {"status": "nan", "updates": update}
-            update += n
-            evals = self.evaluate(state.params, update)
-            for i, ((csv_path, _), seed_rows) in enumerate(zip(paths, rows)):
-                m = jax.tree_util.tree_map(lambda x: x[i], metrics) if self.multi else metrics
-                episodes = int(np.sum(m["episodes"]))
-                row = {"env_steps": update * cfg.batch_size, "updates": update, "wall_s": round(wall, 3),
-                       "steps_per_s": round(n * cfg.batch_size / wall, 1), "lr": float(schedule(update)),
-                       **{k: float(np.mean(m[k])) for k in LOSS_METRICS if k in m},
-                       "train_episodes": episodes,
-                       "train_reward": float(np.sum(m["episode_reward_sum"]) / max(episodes, 1)), **evals[i]}
-                seed_rows.append(row)
-                if writers:
-                    for k, v in row.items():
-                        if k not in ("env_steps", "updates"):
-                            writers[i].add_scalar(k, v, row["env_steps"])
-                    writers[i].flush()
-            checkpoint.save(self.ckpt_dir, update, state, self.metadata, keep=a.keep)
-            for (csv_path, _), seed_rows in zip(paths, rows):
-                write_rows(csv_path, seed_rows, CSV_FIELDS)
-            last = dict(rows[0][-1], per_seed=[(seed, r[-1]) for seed, r in zip(self.seeds, rows)])
-            bar.set_postfix(eval_reward=" ".join(f"{r[-1]['eval_reward']:.2f}" for r in rows))
-        bar.close()
-        for w in writers:
-            w.close()
-        self.final_state = state
-        return dict(last, status="done")
-
-    def _updates(self, state, n: int, bar):
-        """``n`` updates; metrics ``[n]`` (``[seeds, n]`` with several seeds)."""
-        if self.args.layout == "scan":
-            state, metrics = self.trainer.run(state, n)
-            bar.update(n * self.config.batch_size)
-            return state, metrics
-        history = []
-        for _ in range(n):
-            state, m = self.trainer.update(state)
-            history.append(m)
-            bar.update(self.config.batch_size)
-        return state, jax.tree_util.tree_map(lambda *x: np.stack(x, axis=-1), *jax.device_get(history))
 
 
 def main(argv=None) -> int:
