@@ -41,7 +41,7 @@ from jaxdc.dcp import navigators
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.io import enable_compilation_cache
 from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
-from train.common import EXIT_NAN, LAYOUTS, TrainingRun, nonnegative_float, positive, tensorboard_writer
+from train.common import EXIT_NAN, TrainingRun, add_a2c_arguments, nonnegative_float, positive, tensorboard_writer
 
 #: Networks of the command line: the actor-critics train with A2C, EQN with n-step Q-learning.
 NETS = tuple(sorted(ACTOR_CRITICS)) + ("eqn",)
@@ -84,21 +84,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--energy", nargs=2, type=positive(float, "--energy"), metavar=("INIT", "MAX"),
                    default=(8.0, 16.0), help="initial and maximal energy (Tables 4.3-4.8: 8 16)")
     p.add_argument("--max-steps", type=positive(int, "--max-steps"), default=1000, help="episode step cap")
-    p.add_argument("--steps", type=positive(int, "--steps"), default=1_000_000,
-                   help="T_max: environment steps in total (the learning rate reaches 0 there)")
-    p.add_argument("--seed", type=int, default=0)
+    add_a2c_arguments(p)  # --steps --seed --envs --t-max --lr ... --keep --no-progress (train/common.py)
     p.add_argument("--seeds", type=_seed_list, default=None,
                    help="several independent runs at once (vmapped), e.g. 0,1,2; replaces --seed")
     p.add_argument("--devices", type=positive(int, "--devices"), default=None,
                    help="devices to split the environment batch over (default: all; --envs must be a multiple)")
-    p.add_argument("--envs", type=positive(int, "--envs"), default=16, help="parallel environments")
-    p.add_argument("--t-max", type=positive(int, "--t-max"), default=32, help="rollout length per update")
-    p.add_argument("--lr", type=positive(float, "--lr"), default=1e-4, help="initial learning rate")
-    p.add_argument("--gamma", type=nonnegative_float("--gamma"), default=0.99)
-    p.add_argument("--entropy", type=nonnegative_float("--entropy"), default=A2CConfig.entropy_coef,
-                   help="entropy bonus weight (default 0.01 as in A3C; 0 for the thesis' two loss terms)")
-    p.add_argument("--value-coef", type=nonnegative_float("--value-coef"), default=A2CConfig.value_coef)
-    p.add_argument("--max-grad-norm", type=positive(float, "--max-grad-norm"), default=None)
     p.add_argument("--reset-slots", type=positive(int, "--reset-slots"), default=None,
                    help="fresh initial states drawn per step (default: one per environment)")
     g = p.add_argument_group("learner options beside Algorithm 10 (not in the thesis; see docs/learning.md)")
@@ -114,16 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="eqn: environment steps between target-network copies")
     p.add_argument("--eval-epsilon", type=nonnegative_float("--eval-epsilon"), default=nstep_q.EVAL_EPSILON,
                    help="eqn: epsilon of the evaluation policy (section 4.5.5: 0.05)")
-    p.add_argument("--layout", choices=LAYOUTS, default="loop",
-                   help="loop: one jitted update per Python iteration (faster on CPU); scan: updates in lax.scan")
     p.add_argument("--out", default=None, help="run folder (default runs/dcp-NET-RISK-sSEED)")
-    p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
-    p.add_argument("--eval-every", type=positive(int, "--eval-every"), default=100_000,
-                   help="environment steps between evaluations and checkpoints")
-    p.add_argument("--eval-episodes", type=positive(int, "--eval-episodes"), default=500)
-    p.add_argument("--greedy-eval", action="store_true", help="evaluate the argmax policy instead of sampling")
-    p.add_argument("--keep", type=positive(int, "--keep"), default=3, help="checkpoints to keep")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--tensorboard", action="store_true",
                    help="also write the metrics as TensorBoard event files into OUT/tb (needs tensorboardX)")
     return p
