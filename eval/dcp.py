@@ -94,6 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--checkpoint", metavar="PATH",
                    help="learned parameters: a train.dcp run folder or a .msgpack file (jaxdc.pretrained); "
                         "with --table, the table's learned row")
+    p.add_argument("--run-seed", type=int, default=None, metavar="S",
+                   help="--checkpoint of a train.dcp --seeds run: the seed whose network to evaluate")
     p.add_argument("--greedy", action="store_true",
                    help="learned policy: argmax instead of sampling (EQN: epsilon 0)")
     p.add_argument("--epsilon", type=_probability, default=learned_lib.EQN_EPSILON,
@@ -155,6 +157,8 @@ def resolve_learned(args, spec=None):
     4.3 for Tables 4.6 and 4.8, whose total reward differs); a shipped file
     that is missing leaves the row out (``None``) and says so on stderr.
     """
+    if args.run_seed is not None and not args.checkpoint:
+        raise ValueError(f"--run-seed {args.run_seed} needs --checkpoint (a train.dcp --seeds run folder)")
     if spec is None:
         if args.policy not in learned_lib.NETS:
             if args.checkpoint:
@@ -162,7 +166,8 @@ def resolve_learned(args, spec=None):
                                  f"got --policy {args.policy}")
             return None
         if args.checkpoint:
-            return learned_lib.load(args.checkpoint, net=args.policy, grid_size=args.grid_size)
+            return learned_lib.load(args.checkpoint, net=args.policy, grid_size=args.grid_size,
+                                    run_seed=args.run_seed)
         return learned_lib.shipped(args.policy, args.risk or DEFAULTS["risk"], args.energy or DEFAULTS["energy"],
                                    grid_size=args.grid_size)
     if not spec.learned or args.no_learned:
@@ -177,7 +182,7 @@ def resolve_learned(args, spec=None):
         except ValueError as e:
             print(f"warning: Table {spec.name}: learned row {net} left out: {e}", file=sys.stderr)
             return None
-    learned = learned_lib.load(args.checkpoint, net=net, grid_size=args.grid_size)
+    learned = learned_lib.load(args.checkpoint, net=net, grid_size=args.grid_size, run_seed=args.run_seed)
     have = learned.setting()
     if have["risk"] != spec.risk or tuple(map(float, have["energy"])) != tuple(map(float, spec.energy)):
         raise ValueError(f"--checkpoint {args.checkpoint}: Table {spec.name} needs a {net} trained with risk "

@@ -18,6 +18,7 @@ import json
 import os
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 from flax import serialization
 
@@ -98,7 +99,8 @@ def shipped_names(problem: str) -> list[str]:
     return sorted(f[: -len(".msgpack")] for f in os.listdir(folder) if f.endswith(".msgpack"))
 
 
-def load_trained(path, problem: str, nets, restore_target, net: str | None = None, check_meta=None):
+def load_trained(path, problem: str, nets, restore_target, net: str | None = None, check_meta=None,
+                 run_seed: int | None = None):
     """``(net_name, params, metadata, source)`` of a trained network, from a file or a training run.
 
     ``path`` is a parameter file of :func:`save` (``.msgpack``, suffix
@@ -108,7 +110,9 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
     network one of ``nets`` and, if given, ``net``; ``check_meta(meta, source)``
     may refuse more (e.g. another grid size). A run's parameters are restored
     into ``restore_target(name, meta, source)``, an initial training state of the
-    same structure. Each failure is a ``ValueError`` that names the source.
+    same structure. A run of several seeds (``--seeds 0,1,2``: every array has a
+    leading seed axis) needs ``run_seed``, the seed whose parameters to return.
+    Each failure is a ``ValueError`` that names the source.
     """
     from jaxdc import checkpoint
 
@@ -138,7 +142,21 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
     if check_meta is not None:
         check_meta(meta, source)
     if os.path.isdir(path):
-        state, meta = checkpoint.restore(ckpt, restore_target(name, meta, source), {"net": name})
-        return name, state.params, dict(meta, problem=problem), ckpt
+        seeds = meta.get("seeds")
+        if not seeds:
+            if run_seed is not None and run_seed != meta.get("seed", run_seed):
+                raise ValueError(f"{source} is a run of seed {meta.get('seed')}, not of seed {run_seed}")
+            state, meta = checkpoint.restore(ckpt, restore_target(name, meta, source), {"net": name})
+            return name, state.params, dict(meta, problem=problem), ckpt
+        if run_seed not in seeds:
+            raise ValueError(f"{source} holds the runs of seeds {seeds}: choose one with run_seed "
+                             f"(eval's --run-seed), got {run_seed}")
+        target = jax.tree_util.tree_map(lambda x: jnp.stack([x] * len(seeds)),
+                                        restore_target(name, meta, source))
+        state, meta = checkpoint.restore(ckpt, target, {"net": name})
+        i = seeds.index(run_seed)
+        params = jax.tree_util.tree_map(lambda x: x[i], state.params)
+        meta = {k: v for k, v in meta.items() if k != "seeds"}
+        return name, params, dict(meta, seed=run_seed, problem=problem), ckpt
     params, meta = load(blob, problem=problem, net=name)
     return name, params, meta, blob

@@ -33,3 +33,25 @@ def test_roundtrip_and_checks(tmp_path):
         pretrained.save(tmp_path / "x", params, {"net": "linear"})
     with pytest.raises(ValueError, match="no shipped dcp parameters named 'nope'"):
         pretrained.shipped("dcp", "nope")
+
+
+def test_multi_seed_run_folder_gives_the_chosen_seed(tmp_path):
+    """A ``train.dcp --seeds 3,7`` checkpoint stacks every array over seeds; ``run_seed`` picks one."""
+    from jaxdc import checkpoint
+    from jaxdc.dcp import learned
+
+    meta = {"format": 1, "net": "linear", "grid_size": 4, "total_reward": 5, "risk": "high",
+            "energy": [8.0, 16.0], "max_steps": 50, "seeds": [3, 7], "algorithm": {"num_envs": 2}}
+    one = learned._train_state("linear", meta, "test")
+    seed7 = one.replace(params=jax.tree_util.tree_map(lambda x: x + 1.0, one.params))
+    stacked = jax.tree_util.tree_map(lambda a, b: jnp.stack([a, b]), one, seed7)
+    checkpoint.save(tmp_path / "run" / "checkpoints", 1, stacked, meta)
+
+    got = learned.load(tmp_path / "run", run_seed=7)
+    assert got.metadata["seed"] == 7 and "seeds" not in got.metadata
+    for a, b in zip(jax.tree_util.tree_leaves(seed7.params), jax.tree_util.tree_leaves(got.params)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    with pytest.raises(ValueError, match=r"seeds \[3, 7\].*got None"):
+        learned.load(tmp_path / "run")
+    with pytest.raises(ValueError, match=r"seeds \[3, 7\].*got 5"):
+        learned.load(tmp_path / "run", run_seed=5)

@@ -87,14 +87,16 @@ def _grid_checker(grid_size: int | None):
     return check
 
 
-def load(path, net: str | None = None, grid_size: int | None = None) -> Learned:
+def load(path, net: str | None = None, grid_size: int | None = None, run_seed: int | None = None) -> Learned:
     """Load a learned policy from a parameter file (``.msgpack``) or a ``train.dcp`` run folder.
 
     ``net`` and ``grid_size``, when given, must match the stored metadata
     (else a ``ValueError`` names both values); the parameters must have the
     shapes of that network on that grid (:func:`jaxdc.pretrained.load_trained`).
+    ``run_seed`` picks one seed of a ``train.dcp --seeds`` run folder.
     """
-    name, params, meta, source = pretrained.load_trained(path, "dcp", NETS, _train_state, net, _grid_checker(grid_size))
+    name, params, meta, source = pretrained.load_trained(path, "dcp", NETS, _train_state, net,
+                                                         _grid_checker(grid_size), run_seed=run_seed)
     module = make_network(name)
     params = check_params(name, module, params, meta.get("grid_size", DEFAULT_SETTING["grid_size"]), source)
     return Learned(name, module, params, meta, source)
