@@ -110,7 +110,8 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
     network one of ``nets`` and, if given, ``net``; ``check_meta(meta, source)``
     may refuse more (e.g. another grid size). A run's parameters are restored
     into ``restore_target(name, meta, source)``, an initial training state of the
-    same structure. A run of several seeds (``--seeds 0,1,2``: every array has a
+    same structure; its metadata gets ``updates``, the restored checkpoint's
+    update count. A run of several seeds (``--seeds 0,1,2``: every array has a
     leading seed axis) needs ``run_seed``, the seed whose parameters to return.
     Each failure is a ``ValueError`` that names the source.
     """
@@ -147,7 +148,7 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
             if run_seed is not None and run_seed != meta.get("seed", run_seed):
                 raise ValueError(f"{source} is a run of seed {meta.get('seed')}, not of seed {run_seed}")
             state, meta = checkpoint.restore(ckpt, restore_target(name, meta, source), {"net": name})
-            return name, state.params, dict(meta, problem=problem), ckpt
+            return name, state.params, dict(meta, problem=problem, updates=checkpoint.latest_step(ckpt)), ckpt
         if run_seed not in seeds:
             raise ValueError(f"{source} holds the runs of seeds {seeds}: choose one with run_seed "
                              f"(eval's --run-seed), got {run_seed}")
@@ -157,6 +158,6 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         i = seeds.index(run_seed)
         params = jax.tree_util.tree_map(lambda x: x[i], state.params)
         meta = {k: v for k, v in meta.items() if k != "seeds"}
-        return name, params, dict(meta, seed=run_seed, problem=problem), ckpt
+        return name, params, dict(meta, seed=run_seed, problem=problem, updates=checkpoint.latest_step(ckpt)), ckpt
     params, meta = load(blob, problem=problem, net=name)
     return name, params, meta, blob

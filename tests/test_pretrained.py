@@ -48,7 +48,7 @@ def test_multi_seed_run_folder_gives_the_chosen_seed(tmp_path):
     checkpoint.save(tmp_path / "run" / "checkpoints", 1, stacked, meta)
 
     got = learned.load(tmp_path / "run", run_seed=7)
-    assert got.metadata["seed"] == 7 and "seeds" not in got.metadata
+    assert got.metadata["seed"] == 7 and "seeds" not in got.metadata and got.metadata["updates"] == 1
     for a, b in zip(jax.tree_util.tree_leaves(seed7.params), jax.tree_util.tree_leaves(got.params)):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
     with pytest.raises(ValueError, match=r"seeds \[3, 7\].*got None"):

@@ -166,11 +166,17 @@ def make_policy(learned: Learned, heuristics=None, greedy: bool = False, epsilon
     return a2c.make_policy(learned.net, learned.params, heuristics, greedy=greedy)
 
 
+def _trained_for(meta: dict) -> str:
+    if "steps" in meta:
+        return f"{meta['steps']} steps"
+    return f"{meta['updates']} updates" if "updates" in meta else "? steps"
+
+
 def describe(learned: Learned) -> str:
     """One line: network, training setting and source."""
     s = learned.setting()
     return (f"{learned.net_name} trained on {s['grid_size']}x{s['grid_size']}, risk {s['risk']}, "
             f"total reward {s['total_reward']}, energy {s['energy'][0]:g}/{s['energy'][1]:g}, "
-            f"{learned.metadata.get('steps', '?')} steps, seed {learned.metadata.get('seed', '?')} "
+            f"{_trained_for(learned.metadata)}, seed {learned.metadata.get('seed', '?')} "
             f"({learned.source})")
 
