@@ -1,0 +1,18 @@
+"""train.ship: the commands that regenerate the shipped DCP networks."""
+
+from train import ship
+
+
+def test_train_command_uses_the_given_steps_unless_the_entry_fixes_them():
+    cmd = ship.train_command("enn", 123, 4, "runs/x")
+    assert cmd[:3] == ["python", "-m", "train.dcp"]
+    assert cmd[cmd.index("--steps") + 1] == "123" and cmd[cmd.index("--seed") + 1] == "4"
+    assert cmd[cmd.index("--out") + 1] == "runs/x/enn"
+    single = ship.train_command("enn_single_item", 123, 0, "runs")
+    assert single.count("--steps") == 1 and single[single.index("--steps") + 1] == "2000000"
+    assert single[single.index("--total-reward") + 1] == "1"
+
+
+def test_every_entry_names_a_dcp_network_and_its_tables():
+    for name, (tables, args) in ship.ALL.items():
+        assert tables and args[0] == "--net" and args[1] in ("enn", "linear", "cnn", "eqn"), name
