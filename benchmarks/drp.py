@@ -19,6 +19,14 @@
     python -m benchmarks.drp --nc-cache --cc-builders gi --cc-rounds resume,scratch,resume,scratch
     python -m benchmarks.drp --gi-resume-stats [--nodes 100 --alpha 20]   # why resume does not pay
 
+4. ``--against REV`` (instead of 1-3): NC on ``--cc-graphs`` graphs x ``--cc-alphas``
+   with the ``jaxdc`` of git revision ``REV`` (extracted with ``git archive``)
+   and with the working tree's, each in a fresh process (first call with
+   compilation, then warm), one after the other per builder; checks the
+   clusters are identical.
+
+    python -m benchmarks.drp --against bb1d1f1 --cc-graphs 2 --cc-builders gi,ng [--json]
+
 The reference uses the same formulas (Eqs. 3.2-3.8), NumPy-vectorised over
 candidates within a step, Python loops over steps, NC re-evaluating only pairs
 with the new cluster, and the same PGC (``jaxdc.drp.clustering.pgc`` is
@@ -176,6 +184,59 @@ def nc_cache_compare(graphs, nodes, alphas, builders, rounds=("cached", "uncache
     return rows
 
 
+def _nc_child(builder, graphs, nodes, alphas, out):
+    """Child of :func:`nc_against`: NC twice (first call, warm) with whichever ``jaxdc`` is first on ``sys.path``."""
+    import jax.numpy as jnp
+
+    from jaxdc.drp import clustering as cl
+    from jaxdc.drp import world
+
+    gs = [world.generate(i, n=nodes) for i in range(graphs)]
+    D = jnp.stack([world.distances(g.base, g.nodes) for g in gs])
+    beta = jnp.stack([world.node_values(g.rewards, g.alpha) for g in gs])
+    psi = jnp.asarray([g.psi for g in gs], jnp.float32)
+    gidx = np.repeat(np.arange(graphs), len(alphas))
+    al = np.tile(np.asarray(alphas, np.float32), graphs)
+    times = []
+    for _ in range(2):
+        t0 = time.perf_counter()
+        member = cl.nc(builder, D, beta, psi, gidx, al)
+        times.append(time.perf_counter() - t0)
+    np.savez(out, member=member, first=times[0], warm=times[1])
+
+
+def nc_against(rev, graphs, nodes, alphas, builders):
+    """NC with the ``jaxdc`` of git revision ``rev`` and with the working tree's, side by side (fresh processes)."""
+    import os
+    import subprocess
+    import tempfile
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        old = os.path.join(tmp, "old")
+        os.makedirs(old)
+        archive = subprocess.run(["git", "archive", rev, "jaxdc"], check=True, capture_output=True).stdout
+        subprocess.run(["tar", "-x", "-C", old], input=archive, check=True)
+        here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+        for b in builders:
+            row = {"builder": b, "graphs": graphs, "nodes": nodes, "alphas": len(alphas), "against": rev}
+            members = {}
+            for tag, root in (("old", old), ("new", here)):
+                out = os.path.join(tmp, f"{b}_{tag}.npz")
+                code = (f"import sys; sys.path.insert(0, {root!r}); from benchmarks.drp import _nc_child; "
+                        f"_nc_child({b!r}, {graphs}, {nodes}, {list(alphas)!r}, {out!r})")
+                subprocess.run([sys.executable, "-c", code], check=True, cwd=here)
+                with np.load(out) as z:
+                    members[tag] = z["member"]
+                    row[f"{tag}_first_s"], row[f"{tag}_warm_s"] = float(z["first"]), float(z["warm"])
+                print(json.dumps({"builder": b, tag: [row[f"{tag}_first_s"], row[f"{tag}_warm_s"]]}), file=sys.stderr)
+            row["speedup_first"] = row["old_first_s"] / row["new_first_s"]
+            row["speedup_warm"] = row["old_warm_s"] / row["new_warm_s"]
+            row["identical_clusters"] = bool((members["old"] == members["new"]).all())
+            rows.append(row)
+    return rows
+
+
 def gi_resume_stats(nodes=100, alpha=20.0, seed=0):
     """How much ``nc(..., resume=True)`` skips for GI on one graph: the share of resumed union builds that
     restart at step 0 and the share of insertions skipped (counted at the ``evaluate_clusters`` calls)."""
@@ -223,7 +284,14 @@ def main(argv=None):
                    help="order of the runs; a repeated path is timed warm")
     p.add_argument("--gi-resume-stats", action="store_true",
                    help="only: how much NC+GI with resume=True skips on one --nodes graph at --alpha")
+    p.add_argument("--against", metavar="REV",
+                   help="only: NC with the jaxdc of git revision REV vs the working tree's (--cc-* settings)")
     args = p.parse_args(argv)
+    if args.against:
+        rows = nc_against(args.against, args.cc_graphs, args.cc_nodes, [float(a) for a in args.cc_alphas.split(",")],
+                          args.cc_builders.split(","))
+        print(json.dumps(rows) if args.json else json.dumps(rows, indent=1))
+        return
     if args.gi_resume_stats:
         print(json.dumps(gi_resume_stats(args.nodes, args.alpha)))
         return

@@ -76,7 +76,7 @@ def test_unknown_builder():
 
 
 _trajectory = jax.jit(tours.gi_trajectory, static_argnums=4)
-_gi_resume = jax.jit(tours._gi_tour)
+_gi_resume = jax.jit(lambda D, beta, psi, mask, cycle0, m0: tours.build_order("gi", psi ** D, beta, mask, (cycle0, m0)))
 
 
 def _resumed(D, beta, union, cycles, first, extra):

@@ -30,25 +30,37 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdc.drp.tours import BUILDERS, build_tour, gi_trajectory
-from jaxdc.drp.world import tour_gain
+from jaxdc.drp.tours import BUILDERS, build_order, gi_trajectory
+from jaxdc.drp.world import tour_reward
 
 CLUSTERINGS = ("nc", "pgc")
 
 
 def _bucket(size, n):
-    """Padded cluster size: the next power of two, at most ``n``."""
-    k = 1 << int(np.ceil(np.log2(max(int(size), 2))))
-    return min(k, n)
+    """Padded cluster size: the next of 2, 4, 8, 16, 24, 32, 48, 64, 96, ... (``2**k`` and, from 24 on,
+    ``1.5 * 2**k``); ``n`` if that is at least ``0.9 n``.
+
+    A tour build costs about ``K**2`` per step (``K**3`` for the loss-based criteria), so
+    the half-steps above 16 cut the padding where the work is; each bucket is one
+    compiled program per builder (seconds of XLA time), so there are few of them.
+    """
+    size = max(int(size), 2)
+    k = 1 << int(np.ceil(np.log2(size)))
+    if k >= 32 and 3 * k // 4 >= size:
+        k = 3 * k // 4
+    return n if k >= 0.9 * n else min(k, n)
 
 
-def _chunk(area, count):
-    """Batch width for ``count`` jobs whose arrays have ``area`` entries: a power of 4 from 64, memory-capped."""
-    big = int(min(8192, max(64, 2 ** 21 // area)))
-    width = 64
-    while width < count and width < big:
-        width *= 4
-    return min(width, big)
+def _width(area):
+    """The one batch width of a size bucket whose arrays have ``area`` entries: 4096 jobs for
+    pairs (``K = 2``), 1024 for ``K = 4``, 256 for ``K = 8``, 64 above.
+
+    One width per bucket means one compiled program per (builder, bucket); XLA takes
+    seconds per program on a CPU. Calls on small clusters cost mostly their fixed
+    overhead (a few ms), so they get wide batches; larger ones are compute bound at 64
+    jobs already, and a part-filled batch costs as much as a full one.
+    """
+    return int(max(64, min(4096, 2 ** 14 // area)))
 
 
 def _bucketed(sizes, n, run, order=None, area=lambda K: K * K):
@@ -56,9 +68,8 @@ def _bucketed(sizes, n, run, order=None, area=lambda K: K * K):
 
     Jobs are grouped by :func:`_bucket` of ``sizes``, sorted by ``order``
     (default: their size) so that jobs of similar loop length share a
-    ``while_loop``, and cut into chunks of :func:`_chunk` width; ``pad`` is
-    ``part`` padded to that width by repeating its first job, so each
-    (bucket, width) compiles once.
+    ``while_loop``, and cut into chunks of :func:`_width`; ``pad`` is ``part``
+    padded to that width by repeating its first job, so each bucket compiles once.
     """
     sizes = np.asarray(sizes)
     order = sizes if order is None else np.asarray(order)
@@ -66,73 +77,105 @@ def _bucketed(sizes, n, run, order=None, area=lambda K: K * K):
     for K in np.unique(buckets):
         sel = np.flatnonzero(buckets == K)
         sel = sel[np.argsort(order[sel], kind="stable")]
-        big = _chunk(area(int(K)), len(sel))
-        for start in range(0, len(sel), big):
-            part = sel[start:start + big]
-            width = _chunk(area(int(K)), len(part))
+        width = _width(area(int(K)))
+        for start in range(0, len(sel), width):
+            part = sel[start:start + width]
             run(int(K), part, np.concatenate([part, np.full(width - len(part), part[0])]))
 
 
-def _compact(D, beta, g, m, K):
-    """Cluster ``m`` of graph ``g`` compacted to ``K`` slots (members in index order, base first):
-    ``(sub, Ds, bs, ms)`` with ``sub`` the graph index of each slot."""
-    idx = jnp.argsort(~m, stable=True)[:K]
-    valid = jnp.arange(K) < m.sum()
-    sub = jnp.concatenate([jnp.zeros((1,), idx.dtype), idx])
-    Ds = D[g][sub[:, None], sub[None, :]]
-    return sub, Ds, beta[g][sub], jnp.concatenate([jnp.zeros((1,), bool), valid])
+def _members(masks, K):
+    """``[J, K]`` graph indices of each cluster's members in index order, padded with the base (0)."""
+    rows, cols = np.nonzero(masks)
+    starts = np.concatenate([[0], np.cumsum(masks.sum(1))[:-1]])
+    subs = np.zeros((masks.shape[0], K), np.int32)
+    subs[rows, np.arange(len(rows)) - starts[rows]] = cols
+    return subs
+
+
+def _tour_parts(D, psi, tour):
+    """``P_t(0)`` of a tour: its return probability, computed as in :func:`tour_gain`."""
+    valid = tour >= 0
+    node = jnp.where(valid, tour, 0)
+    prev = jnp.concatenate([jnp.zeros((1,), node.dtype), node[:-1]])
+    reach = jnp.cumsum(jnp.where(valid, D[prev, node], 0.0))
+    last = jnp.where(valid.any(), node[jnp.maximum(valid.sum() - 1, 0)], 0)
+    return jnp.where(valid.any(), psi ** (reach[-1] + D[last, 0]), 0.0)
 
 
 @partial(jax.jit, static_argnames=("criterion", "K"))
-def _evaluate(criterion, K, D, beta, psi, gidx, alpha, masks, prefix=None, done=None):
-    """Tour rewards of the clusters ``masks [J, n+1]`` (graph ``gidx``, robot value ``alpha``).
+def _evaluate(criterion, K, D, P, beta, psi, gidx, alpha, subs, sizes, prefix=None, done=None):
+    """Tours and rewards of the clusters ``subs [J, K]`` (members, ``sizes [J]`` of them) of graph
+    ``gidx`` at robot value ``alpha``.
 
     Each cluster is compacted to ``K`` slots (members in index order, so ties
-    still go to the lowest node) before ``BuildTour`` runs on it. With
-    ``prefix [J, n+1]`` (partial GI tours in graph indices, base first) and
-    ``done [J]`` (their lengths), GI resumes from them instead of starting empty.
+    still go to the lowest node; ``P = psi**D`` gathered, not recomputed) before
+    ``BuildTour`` runs on it. Returns ``(reward, tour, collected, p_return)``:
+    Eq. 3.1 for the tour, the tour in graph indices, and its alpha-free parts
+    ``sum_v P_t(v) beta(v)`` and ``P_t(0)`` (``reward = collected + p_return *
+    alpha - alpha`` up to rounding; see :func:`_combine`). With ``prefix [J, n+1]``
+    (partial GI tours in graph indices, base first) and ``done [J]`` (their
+    lengths), GI resumes from them instead of starting empty.
     """
 
-    def one(g, a, m, pre, d):
-        sub, Ds, bs, ms = _compact(D, beta, g, m, K)
-        bs = bs.at[0].set(a)
+    def one(g, a, sub, size, pre, d):
+        sub = jnp.concatenate([jnp.zeros((1,), sub.dtype), sub])
+        ms = jnp.concatenate([jnp.zeros((1,), bool), jnp.arange(K) < size])
+        Ps = P[g][sub[:, None], sub[None, :]]
+        bs = beta[g][sub].at[0].set(a)
         resume = None
         if pre is not None:
-            rank = jnp.cumsum(m).astype(jnp.int32)  # slot of each member (m[0] is False)
-            inpre = jnp.zeros(m.shape, bool).at[pre].set(True)
+            n1 = D.shape[1]
+            slots = jnp.arange(1, K + 1, dtype=jnp.int32)
+            rank = jnp.zeros((n1,), jnp.int32).at[sub[1:]].set(jnp.where(slots <= size, slots, 0))
+            inpre = jnp.zeros((n1,), bool).at[pre].set(True)
             ms = ms & ~inpre[sub]
             resume = (rank[pre[: K + 1]], d)
-        tour, reward = build_tour(criterion, Ds, bs, psi[g], ms, resume)
-        return reward, jnp.where(tour >= 0, sub[jnp.maximum(tour + 0, 0)], -1)
+        tour = build_order(criterion, Ps, bs, ms, resume)
+        tour = jnp.where(tour >= 0, sub[jnp.maximum(tour, 0)], -1)
+        reward = tour_reward(D[g], beta[g].at[0].set(a), psi[g], tour)
+        collected = tour_reward(D[g], beta[g].at[0].set(0.0), psi[g], tour)
+        return reward, tour, collected, _tour_parts(D[g], psi[g], tour)
 
-    return jax.vmap(one)(gidx, alpha, masks, prefix, done)
+    return jax.vmap(one)(gidx, alpha, subs, sizes, prefix, done)
 
 
-def evaluate_clusters(criterion, D, beta, psi, gidx, alpha, masks, with_tours=False, resume=None):
+def _run_evaluate(criterion, D, beta, psi, gidx, alpha, masks, P=None, resume=None):
+    """:func:`_evaluate` for a batch of any sizes (bucketed by size, chunked): numpy
+    ``(reward [J], tours [J, n], collected [J], p_return [J])``."""
+    masks = np.asarray(masks, bool)
+    J, n1 = masks.shape
+    n = n1 - 1
+    P = psi[:, None, None] ** D if P is None else P
+    gidx = np.asarray(gidx, np.int32)
+    alpha = np.asarray(alpha, np.float32)
+    out = (np.zeros(J, np.float32), np.full((J, n), -1, np.int32), np.zeros(J, np.float32), np.zeros(J, np.float32))
+    sizes = masks.sum(1).astype(np.int32)
+    subs = _members(masks, n)
+
+    def run(K, part, pad):
+        extra = () if resume is None else (jnp.asarray(resume[0][pad]), jnp.asarray(resume[1][pad], jnp.int32))
+        res = _evaluate(criterion, K, D, P, beta, psi, jnp.asarray(gidx[pad]), jnp.asarray(alpha[pad]),
+                        jnp.asarray(subs[pad, :K]), jnp.asarray(sizes[pad]), *extra)
+        for o, r in zip(out, res):
+            if o.ndim == 2:
+                o[part, :K] = np.asarray(r)[: len(part)]
+            else:
+                o[part] = np.asarray(r)[: len(part)]
+
+    # Resumed jobs share a while_loop best when they have as many insertions left.
+    _bucketed(sizes, n, run, order=None if resume is None else sizes - np.asarray(resume[1]))
+    return out
+
+
+def evaluate_clusters(criterion, D, beta, psi, gidx, alpha, masks, with_tours=False, resume=None, P=None):
     """``R(C)`` for a batch of clusters of any sizes (bucketed by size, chunked, jitted).
 
     ``D [G, n+1, n+1]``, ``beta [G, n+1]``, ``psi [G]``; ``gidx``, ``alpha``: ``[J]``;
     ``masks``: ``[J, n+1]`` bool. ``resume = (prefix [J, n+1], done [J])``: GI only,
-    continue each tour from a partial tour (see :func:`_evaluate`). Returns
-    rewards ``[J]`` (and tours ``[J, n]`` of graph indices).
+    continue each tour from a partial tour (see :func:`_evaluate`). ``P``: ``psi**D``
+    if already at hand. Returns rewards ``[J]`` (and tours ``[J, n]`` of graph indices).
     """
-    masks = np.asarray(masks, bool)
-    J, n1 = masks.shape
-    n = n1 - 1
-    rewards = np.zeros(J, np.float32)
-    tours = np.full((J, n), -1, np.int32) if with_tours else None
-    sizes = masks.sum(1)
-
-    def run(K, part, pad):
-        extra = () if resume is None else (jnp.asarray(resume[0][pad]), jnp.asarray(resume[1][pad], jnp.int32))
-        r, t = _evaluate(criterion, K, D, beta, psi, jnp.asarray(gidx[pad]), jnp.asarray(alpha[pad], jnp.float32),
-                         jnp.asarray(masks[pad]), *extra)
-        rewards[part] = np.asarray(r)[: len(part)]
-        if with_tours:
-            tours[part, :K] = np.asarray(t)[: len(part)]
-
-    # Resumed jobs share a while_loop best when they have as many insertions left.
-    _bucketed(sizes, n, run, order=None if resume is None else sizes - np.asarray(resume[1]))
+    rewards, tours, _, _ = _run_evaluate(criterion, D, beta, psi, gidx, alpha, masks, P, resume)
     return (rewards, tours) if with_tours else rewards
 
 
@@ -165,18 +208,7 @@ def gi_trajectories(D, beta, psi, gidx, alpha, masks):
     return cycles, first
 
 
-def _tour_parts(D, psi, tour):
-    """``P_t(0)`` of a compacted tour: its return probability, computed as in :func:`tour_gain`."""
-    valid = tour >= 0
-    node = jnp.where(valid, tour, 0)
-    prev = jnp.concatenate([jnp.zeros((1,), node.dtype), node[:-1]])
-    reach = jnp.cumsum(jnp.where(valid, D[prev, node], 0.0))
-    last = jnp.where(valid.any(), node[jnp.maximum(valid.sum() - 1, 0)], 0)
-    return jnp.where(valid.any(), psi ** (reach[-1] + D[last, 0]), 0.0)
-
-
-@partial(jax.jit, static_argnames=("criterion", "K"))
-def _evaluate_parts(criterion, K, D, beta, psi, gidx, masks):
+def evaluate_parts(criterion, D, beta, psi, gidx, masks, P=None):
     """``(collected, p_return)`` of the append-builder tours of ``masks [J, n+1]`` (graph ``gidx``).
 
     The append criteria never look at ``beta(0) = alpha`` (node 0 is never a
@@ -185,30 +217,7 @@ def _evaluate_parts(criterion, K, D, beta, psi, gidx, masks):
     builder's reward exactly the collected part ``sum_v P_t(v) beta(v)``.
     ``R(C) = collected + p_return * alpha - alpha`` (:func:`_combine`).
     """
-
-    def one(g, m):
-        _, Ds, bs, ms = _compact(D, beta, g, m, K)
-        bs = bs.at[0].set(0.0)
-        tour, collected = build_tour(criterion, Ds, bs, psi[g], ms)
-        return collected, _tour_parts(Ds, psi[g], tour)
-
-    return jax.vmap(one)(gidx, masks)
-
-
-def evaluate_parts(criterion, D, beta, psi, gidx, masks):
-    """:func:`_evaluate_parts` for a batch of any sizes (bucketed, chunked like :func:`evaluate_clusters`)."""
-    masks = np.asarray(masks, bool)
-    J, n1 = masks.shape
-    n = n1 - 1
-    collected = np.zeros(J, np.float32)
-    p_return = np.zeros(J, np.float32)
-
-    def run(K, part, pad):
-        c, p = _evaluate_parts(criterion, K, D, beta, psi, jnp.asarray(gidx[pad]), jnp.asarray(masks[pad]))
-        collected[part] = np.asarray(c)[: len(part)]
-        p_return[part] = np.asarray(p)[: len(part)]
-
-    _bucketed(masks.sum(1), n, run)
+    _, _, collected, p_return = _run_evaluate(criterion, D, beta, psi, gidx, np.zeros(len(gidx), np.float32), masks, P)
     return collected, p_return
 
 
@@ -223,8 +232,8 @@ class _TourCache:
     """``(graph, node set) -> (collected, p_return)`` for the append builders, shared by all
     robot values of a graph and by all NC rounds: each node set's tour is built once."""
 
-    def __init__(self, criterion, D, beta, psi):
-        self.args = (criterion, D, beta, psi)
+    def __init__(self, criterion, D, beta, psi, P):
+        self.args = (criterion, D, beta, psi, P)
         self.index = {}
         self.collected = np.zeros(0, np.float32)
         self.p_return = np.zeros(0, np.float32)
@@ -240,7 +249,7 @@ class _TourCache:
         new = np.flatnonzero(slot < 0)
         if len(new):
             rows = first[new]
-            c, p = evaluate_parts(*self.args[:4], gidx[rows], masks[rows])
+            c, p = evaluate_parts(*self.args[:4], gidx[rows], masks[rows], self.args[4])
             base = len(self.collected)
             self.collected = np.concatenate([self.collected, c])
             self.p_return = np.concatenate([self.p_return, p])
@@ -283,6 +292,7 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=F
     D = jnp.asarray(D, jnp.float32)
     beta = jnp.asarray(beta, jnp.float32)
     psi = jnp.asarray(psi, jnp.float32)
+    P = psi[:, None, None] ** D
     gidx = np.asarray(gidx, np.int32)
     alpha = np.asarray(alpha, np.float32)
     I, n1 = len(gidx), D.shape[1]
@@ -300,40 +310,41 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=F
     a_idx, b_idx = np.triu_indices(n1 - 1, 1)
     a_idx, b_idx = a_idx + 1, b_idx + 1
     Rpair = np.full((I, n1, n1), -np.inf, np.float32)
-    P = len(a_idx)
-    tc = _TourCache(criterion, D, beta, psi) if cache and criterion != "gi" else None
+    npair = len(a_idx)
+    tc = _TourCache(criterion, D, beta, psi, P) if cache and criterion != "gi" else None
     if tc is not None:
         # Singletons and pairs: one build per graph, shared by all its robot values.
         # (No later round asks for a set of size < 3, so they are not stored.)
         m = eye[a_idx] | eye[b_idx]
         for g in np.unique(gidx):
             its = np.flatnonzero(gidx == g)
-            c1, p1 = evaluate_parts(criterion, D, beta, psi, np.full(n1 - 1, g, np.int32), eye[1:])
-            c2, p2 = evaluate_parts(criterion, D, beta, psi, np.full(P, g, np.int32), m)
+            c1, p1 = evaluate_parts(criterion, D, beta, psi, np.full(n1 - 1, g, np.int32), eye[1:], P)
+            c2, p2 = evaluate_parts(criterion, D, beta, psi, np.full(npair, g, np.int32), m, P)
             for i in its:
                 R[i, 1:] = _combine(c1, p1, alpha[i])
                 Rpair[i, a_idx, b_idx] = _combine(c2, p2, alpha[i])
     else:
-        R[inst, nodes] = evaluate_clusters(criterion, D, beta, psi, gidx[inst], alpha[inst], eye[nodes])
+        R[inst, nodes] = evaluate_clusters(criterion, D, beta, psi, gidx[inst], alpha[inst], eye[nodes], P=P)
         for i in range(I):  # one instance's pairs at a time keeps the mask array small
             m = eye[a_idx] | eye[b_idx]
-            Rpair[i, a_idx, b_idx] = evaluate_clusters(criterion, D, beta, psi, np.full(P, gidx[i]),
-                                                       np.full(P, alpha[i]), m)
-    upper = np.triu(np.ones((n1, n1), bool), 1)
+            Rpair[i, a_idx, b_idx] = evaluate_clusters(criterion, D, beta, psi, np.full(npair, gidx[i]),
+                                                       np.full(npair, alpha[i]), m, P=P)
+    # gain[i, s, t] = R(C_s ∪ C_t) - R(C_s) - R(C_t) for live slots s < t, -inf elsewhere; kept up to
+    # date for the re-evaluated pairs only (the others' terms do not change), with the same float32 ops.
+    gain = (Rpair - R[:, :, None]) - R[:, None, :]
     active = np.ones(I, bool)
     while True:
-        gain = Rpair - R[:, :, None] - R[:, None, :]
-        ok = upper[None] & alive[:, :, None] & alive[:, None, :]
-        gain = np.where(ok, gain, -np.inf)
-        flat = gain.reshape(I, -1)
+        act = np.flatnonzero(active)
+        flat = gain[act].reshape(len(act), -1)
         best = flat.argmax(1)
-        active &= flat[np.arange(I), best] > 0
+        merge = flat[np.arange(len(act)), best] > 0
+        active[act[~merge]] = False
         if progress is not None:
             progress()
-        if not active.any():
+        if not merge.any():
             return member
-        act = np.flatnonzero(active)
-        a, b = best[act] // n1, best[act] % n1
+        act, best = act[merge], best[merge]
+        a, b = best // n1, best % n1
         member[act, a] |= member[act, b]
         member[act, b] = False
         alive[act, b] = False
@@ -342,6 +353,8 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=F
         R[act, a] = Rpair[act, a, b]
         Rpair[act, b, :] = -np.inf
         Rpair[act, :, b] = -np.inf
+        gain[act, b, :] = -np.inf
+        gain[act, :, b] = -np.inf
         # Re-evaluate only the pairs (new cluster, k).
         other = alive[act].copy()
         other[np.arange(len(act)), a] = False
@@ -357,11 +370,12 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=F
             prefix = np.zeros((len(rows), n1), np.int32)
             prefix[:, : cycles.shape[2]] = cycles[rows, done]
             r = evaluate_clusters(criterion, D, beta, psi, gidx[inst_j], alpha[inst_j], masks,
-                                  resume=(prefix, done))
+                                  resume=(prefix, done), P=P)
         else:
-            r = evaluate_clusters(criterion, D, beta, psi, gidx[inst_j], alpha[inst_j], masks)
+            r = evaluate_clusters(criterion, D, beta, psi, gidx[inst_j], alpha[inst_j], masks, P=P)
         lo, hi = np.minimum(a_j, ks), np.maximum(a_j, ks)
         Rpair[inst_j, lo, hi] = r
+        gain[inst_j, lo, hi] = (r - R[inst_j, lo]) - R[inst_j, hi]
 
 
 # ----------------------------------------------------------------------------- PGC
@@ -383,7 +397,7 @@ def pgc_merge(D, beta, psi, alpha, adj, ci, cj):
     """
     if D[0, ci.e] > D[0, cj.e]:
         ci, cj = cj, ci
-    block = D[np.ix_(ci.C, cj.C)]
+    block = D[ci.C][:, cj.C]
     k = int(block.argmin())
     vi, vj = ci.C[k // len(cj.C)], cj.C[k % len(cj.C)]
     d0 = D[0, ci.e]

@@ -1,6 +1,7 @@
 """The six tour builders of section 3.4.2 (Algorithm 2, Eqs. 3.2-3.8) as array programs.
 
-Every builder takes ``(D, beta, psi, mask)`` for one cluster:
+:func:`build_tour` takes ``(D, beta, psi, mask)`` for one cluster
+(:func:`build_order`, the tour alone, takes ``P = psi**D`` instead of ``D, psi``):
 
 * ``D``: ``[K+1, K+1]`` distances with the base as index 0;
 * ``beta``: ``[K+1]`` rewards with ``beta[0] = alpha``;
@@ -35,10 +36,9 @@ from jaxdc.drp.world import tour_reward
 BUILDERS = APPEND_CRITERIA + ("gi",)
 
 
-def _append_tour(criterion, D, beta, psi, mask):
-    """Algorithm 2 with an append criterion: always insert at position ``|t|``."""
-    n = D.shape[0] - 1
-    P = psi ** D
+def _append_tour(criterion, P, beta, mask):
+    """Algorithm 2 with an append criterion: always insert at position ``|t|``. ``P = psi**D``."""
+    n = P.shape[0] - 1
     mask = jnp.asarray(mask, bool).at[0].set(False)
 
     def cond(st):
@@ -91,8 +91,8 @@ def _gi_insert(cycle, rows, P, u, i, k):
     return cycle.astype(jnp.int32), rows
 
 
-def _gi_tour(D, beta, psi, mask, cycle0=None, m0=0):
-    """Greedy Insertion (GI, Eq. 3.8): the best node at the best position, cyclic tour.
+def _gi_tour(P, beta, mask, cycle0=None, m0=0):
+    """Greedy Insertion (GI, Eq. 3.8): the best node at the best position, cyclic tour. ``P = psi**D``.
 
     ``cycle0`` (``[K+1]``, base at 0, zeros after position ``m0``) resumes GI from a
     partial tour of ``m0`` nodes, as if its first ``m0`` insertions had been made
@@ -101,27 +101,80 @@ def _gi_tour(D, beta, psi, mask, cycle0=None, m0=0):
     unassigned nodes, so a run over ``C`` agrees with a run over a subset of ``C``
     until the first insertion of a node outside it (used by
     :func:`jaxdc.drp.clustering.nc` via :func:`gi_trajectory`).
+
+    The scores are those of :func:`gi_scores`, computed with the same float32
+    operations, but the ``[K+1, K+1]`` blocks are kept in *slot* order (the order
+    in which tour nodes were inserted) rather than in tour order. Inserting ``u``
+    after ``a`` (successor ``b``) then changes two rows only: the edge ``(a, b)``
+    becomes ``(a, u)`` and ``(u, b)`` is new. So the per-edge factor
+    ``1 - P(a, u') P(u', b) / P(a, b)`` of Eq. 3.8 is computed once per edge and
+    kept, instead of for every edge at every step; only the ``[K+1]`` vectors
+    ``P_t(a)`` and "value after ``a``" are recomputed, in tour order, as in
+    :func:`gi_scores`. Slots fill from the top, so while fewer than half are
+    used only that half of the block is scored. Ties: lowest node, then
+    earliest tour position.
     """
-    n = D.shape[0] - 1
+    n = P.shape[0] - 1
     mask = jnp.asarray(mask, bool).at[0].set(False)
     k = jnp.arange(n + 1)
-    P = psi ** D
+    tiny = jnp.finfo(jnp.float32).tiny
     cycle0 = jnp.zeros((n + 1,), jnp.int32) if cycle0 is None else jnp.asarray(cycle0, jnp.int32)
+    m0 = jnp.asarray(m0, jnp.int32)
 
-    def cond(st):
-        mask, _, _, m = st
-        return (m < n) & mask.any()
+    def factor(p_a, p_b, p_ab):
+        """``1 - P(a, u) P(u, b) / P(a, b)`` for every ``u``: Eq. 3.8's discount of what follows ``a``."""
+        return 1.0 - p_a * p_b / jnp.maximum(p_ab, tiny)
 
-    def body(st):
-        mask, cycle, rows, m = st
-        score = gi_scores(P, beta, cycle, m, mask, rows)
-        best = jnp.argmax(score.T)  # lowest node first, then earliest position
-        u, i = best // (n + 1), best % (n + 1)
-        cycle, rows = _gi_insert(cycle, rows, P, u, i, k)
-        return mask.at[u].set(False), cycle, rows, m + 1
+    def cond(limit):
+        def go(st):
+            mask, m = st[0], st[-1]
+            return (m < limit) & mask.any()
+        return go
 
-    init = (mask, cycle0, P[cycle0], jnp.asarray(m0, jnp.int32))
-    _, cycle, _, m = jax.lax.while_loop(cond, body, init)
+    def body(h):
+        """One insertion, scoring only the first ``h`` slots (valid while ``m < h``)."""
+
+        def step(st):
+            mask, order, node, rows, fac, m = st
+            # Tour-order vectors, exactly as in gi_scores: order[j] is the slot at tour position j.
+            inside = k <= m
+            cyc = node[order]
+            nxt = jnp.where(k < m, jnp.roll(cyc, -1), 0)
+            edge = jnp.where(inside, P[cyc, nxt], 1.0)
+            reach = jnp.cumprod(jnp.concatenate([jnp.ones((1,), edge.dtype), edge[:-1]]))
+            collected = jnp.where((k >= 1) & inside, reach * beta[cyc], 0.0)
+            home = jnp.prod(edge) * beta[0]
+            after = collected.sum() - jnp.cumsum(collected) + home
+            pos = jnp.zeros((n + 1,), jnp.int32).at[order].set(k.astype(jnp.int32))  # tour position of each slot
+            ph = pos[:h]
+            score = reach[ph][:, None] * rows[:h] * beta[None, :] - fac[:h] * after[ph][:, None]
+            score = jnp.where((k[:h] <= m)[:, None] & mask[None, :], score, -jnp.inf)
+            best = score.max(axis=0)
+            u = jnp.argmax(best)  # lowest node
+            slot = jnp.argmin(jnp.where(score[:, u] == best[u], ph, n + 1))  # then earliest position
+            i = pos[slot]
+            new = m + 1
+            a, b = node[slot], nxt[i]
+            fac = fac.at[slot].set(factor(rows[slot], P[u], P[a, u])).at[new].set(factor(P[u], P[b], P[u, b]))
+            rows = rows.at[new].set(P[u])
+            node = node.at[new].set(u)
+            order = jnp.where(k <= i, order, jnp.where(k == i + 1, new, jnp.where(k <= new, jnp.roll(order, 1), k)))
+            return mask.at[u].set(False), order.astype(jnp.int32), node, rows, fac, new
+
+        return step
+
+    # Initial slots: the partial tour cycle0 in tour order.
+    rows0 = P[cycle0]
+    nxt0 = jnp.where(k < m0, jnp.roll(cycle0, -1), 0)
+    p_ub0 = jnp.where((k < m0)[:, None], jnp.roll(rows0, -1, axis=0), P[0][None, :])
+    edge0 = jnp.where(k <= m0, P[cycle0, nxt0], 1.0)
+    fac0 = factor(rows0, p_ub0, edge0[:, None])
+    st = (mask, k.astype(jnp.int32), cycle0, rows0, fac0, m0)
+    # Two phases: while the partial tour has fewer than half the slots, score only those rows.
+    half = (n + 2) // 2
+    st = jax.lax.while_loop(cond(half), body(half), st)
+    _, order, node, _, _, m = jax.lax.while_loop(cond(n), body(n + 1), st)
+    cycle = node[order]
     return jnp.where(k[1:] <= m, cycle[1:], -1)
 
 
@@ -171,19 +224,26 @@ def gi_trajectory(D, beta, psi, mask, K):
     return cycles, jnp.minimum(first, size)
 
 
-def build_tour(criterion: str, D, beta, psi, mask, resume=None):
-    """``BuildTour_K`` (Algorithm 2) for ``criterion`` in :data:`BUILDERS`; returns ``(tour, reward)``.
+def build_order(criterion: str, P, beta, mask, resume=None):
+    """The tour of ``BuildTour_K`` (Algorithm 2) from ``P = psi**D``: ``[K]`` indices, padded with ``-1``.
 
     ``resume = (cycle0, m0)`` (GI only) continues from a partial tour, see :func:`_gi_tour`.
     """
     if resume is not None and criterion != "gi":
         raise ValueError(f"only the builder 'gi' can resume from a partial tour, got {criterion!r}")
     if criterion == "gi":
-        tour = _gi_tour(D, beta, psi, mask, *(resume or ()))
-    elif criterion in APPEND_CRITERIA:
-        tour = _append_tour(criterion, D, beta, psi, mask)
-    else:
-        raise ValueError(f"builder must be one of {BUILDERS}, got {criterion!r}")
+        return _gi_tour(P, beta, mask, *(resume or ()))
+    if criterion in APPEND_CRITERIA:
+        return _append_tour(criterion, P, beta, mask)
+    raise ValueError(f"builder must be one of {BUILDERS}, got {criterion!r}")
+
+
+def build_tour(criterion: str, D, beta, psi, mask, resume=None):
+    """``BuildTour_K`` (Algorithm 2) for ``criterion`` in :data:`BUILDERS`; returns ``(tour, reward)``.
+
+    ``resume = (cycle0, m0)`` (GI only) continues from a partial tour, see :func:`_gi_tour`.
+    """
+    tour = build_order(criterion, psi ** D, beta, mask, resume)
     return tour, tour_reward(D, beta, psi, tour)
 
 
