@@ -4,7 +4,8 @@ The device count of a process is fixed when JAX starts, so the 2-device run
 is a subprocess with ``--xla_force_host_platform_device_count=2``; it is
 compared with a 1-device subprocess: same seed and global batch, same
 parameters (float tolerance), and the environment states really are split
-over the two devices.
+over the two devices. The two subprocesses run side by side (each is mostly
+single-threaded XLA compilation).
 """
 
 from __future__ import annotations
@@ -50,18 +51,29 @@ SCRIPT = textwrap.dedent("""
 """)
 
 
-def _run(devices: int) -> dict:
+def _start(devices: int) -> subprocess.Popen:
     env = dict(os.environ, JAX_PLATFORMS="cpu",
                XLA_FLAGS=f"--xla_force_host_platform_device_count={devices}")
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    out = subprocess.run([sys.executable, "-c", SCRIPT], env=env, cwd=root, capture_output=True, text=True,
-                         timeout=300)
-    assert out.returncode == 0, out.stderr[-3000:]
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return subprocess.Popen([sys.executable, "-c", SCRIPT], env=env, cwd=root, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _result(proc: subprocess.Popen) -> dict:
+    stdout, stderr = proc.communicate(timeout=300)
+    assert proc.returncode == 0, stderr[-3000:]
+    return json.loads(stdout.strip().splitlines()[-1])
 
 
 def test_two_devices_give_the_one_device_result_and_really_shard():
-    one, two = _run(1), _run(2)
+    procs = _start(1), _start(2)  # side by side: each spends most of its time in single-threaded compiles
+    try:
+        one, two = _result(procs[0]), _result(procs[1])
+    finally:  # a timeout or failure of one leaves no orphan behind
+        for proc in procs:
+            if proc.poll() is None:
+                proc.kill()
+                proc.communicate()
     assert one["devices"] == 1 and two["devices"] == 2
     assert two["env_shards"][0][0] == CONFIG.num_envs // 2 and len(two["env_shards"]) == 2
     assert one["env_shards"][0][0] == CONFIG.num_envs
