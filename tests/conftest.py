@@ -1,12 +1,60 @@
-"""Shared helpers of the DCP core tests: hand-made states and risk maps."""
+"""Test-session set-up (one fresh XLA compile cache) and shared helpers: hand-made states and risk maps."""
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
+
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from jaxdc.dcp.env import RUNNING, EnvState
+
+# ----------------------------------------------------------------------------- one XLA cache per session
+#
+# Most of the suite's time is XLA compilation, and many tests compile the same program again: fresh jit
+# wrappers of one function in this process, the CLI/notebook/sharding subprocesses, the other pytest-xdist
+# worker. A persistent compile cache that starts empty for the session and is removed at its end lets
+# them share those compiles while the run stays a clean-checkout run: nothing is read from or written to
+# the user's ~/.cache (JAXDC_NO_CACHE=1 keeps the CLIs' own cache, jaxdc.io.enable_compilation_cache, off).
+# A cache hit loads the executable that the same program compiled to, so results do not change.
+# ``--no-xla-cache`` turns it off; JAXDC_TEST_XLA_CACHE=DIR makes the session use (and keep) DIR.
+
+SESSION_CACHE = "JAXDC_TEST_XLA_CACHE"
+_OWNED = pytest.StashKey[str]()
+
+
+def pytest_addoption(parser):
+    parser.addoption("--no-xla-cache", action="store_true",
+                     help="jaxdc: no session-wide persistent XLA compile cache (every process compiles alone)")
+
+
+def pytest_configure(config):
+    os.environ.setdefault("JAXDC_NO_CACHE", "1")
+    if config.getoption("no_xla_cache"):
+        return
+    path = os.environ.get(SESSION_CACHE)
+    if not path:  # the first process of the session (plain pytest, or xdist's controller before its workers)
+        path = tempfile.mkdtemp(prefix="jaxdc-test-xla-")
+        os.environ[SESSION_CACHE] = path
+        config.stash[_OWNED] = path
+    # subprocesses (CLIs, notebook kernels, the sharding runs) read these when they import jax
+    os.environ["JAX_COMPILATION_CACHE_DIR"] = path
+    os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0"
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+
+
+def pytest_unconfigure(config):
+    path = config.stash.get(_OWNED, None)
+    if path:
+        shutil.rmtree(path, ignore_errors=True)
+        for name in (SESSION_CACHE, "JAX_COMPILATION_CACHE_DIR"):
+            if os.environ.get(name) == path:
+                del os.environ[name]
 
 
 def items_grid(n, items):
