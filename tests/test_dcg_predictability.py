@@ -1,0 +1,51 @@
+"""The ceiling of opponent-action prediction (jaxdc.dcg.predictability): labels aligned, Bayes predictor sound."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxdc.dcg import DCG, DOUBLE_BLIND_STRATEGIES
+from jaxdc.dcg.predictability import ceiling, record, window_predict, windows
+
+K = 3  # a short history keeps the enumeration small
+
+
+def _random_policy(key, obs, state):
+    return jax.random.randint(key, (), 0, 9).astype(jnp.int32)
+
+
+@pytest.fixture(scope="module")
+def games():
+    env = DCG(grid_size=3, total_reward=3, strategies=DOUBLE_BLIND_STRATEGIES, history=K)
+    params = env.make_params(energy=6.0)
+    return env, params, record(env, params, _random_policy, jax.random.PRNGKey(0), num_envs=8, steps=40)
+
+
+def test_labels_are_the_action_of_the_observed_state(games):
+    """Some opponent state consistent with every frame of (s_t, h_t) takes exactly o_t; a label taken one
+    step late (or early) is not explained on many steps."""
+    env, params, rec = games
+    res = ceiling(env, params, rec, chunk=64)
+    assert res["steps"] == 8 * (40 - K)
+    assert res["label_consistent"] == 1.0
+    # the opponent stays whenever it is hidden (double-blind: the collector is in the fog), and hiding
+    # reveals the strategy: predicted on every step
+    assert res["per_strategy"]["double_blind"]["accuracy"] == 1.0
+    assert 0.5 < res["accuracy"] <= 1.0 and res["deterministic"] <= res["accuracy"]
+    frames, label, _, time = windows(rec, K)
+    out = window_predict(env, params, frames, chunk=64)
+    shifted = np.roll(label, 8)  # rows are (step, game): the label of the previous step of the same game
+    same_episode = np.roll(time, 8) == time - 1
+    late = out["possible"][np.arange(label.size), shifted][same_episode & (shifted != label)]
+    assert late.size > 20 and late.mean() < 0.5
+
+
+def test_windows_mark_the_frames_before_the_reset(games):
+    env, _, rec = games
+    frames, label, strategy, time = windows(rec, K)
+    np.testing.assert_array_equal(frames["exists"].sum(1), np.minimum(time, K) + 1)
+    np.testing.assert_array_equal(frames["pos"][:, -1], rec.pos[K:].reshape(-1, 2))
+    np.testing.assert_array_equal(label, rec.label[K:].reshape(-1))
