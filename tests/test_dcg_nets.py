@@ -97,6 +97,45 @@ def test_omn_gets_no_gradient_from_the_policy_and_value_loss(nets):
     assert max(_norms(g_ce["conn"])) == 0.0 and max(_norms(g_ce["omn"])) > 0.0
 
 
+def test_omn_lr_applies_to_omns_parameters_only(nets):
+    """A2CConfig.aux_lr (train.dcg --omn-lr, not in the thesis): OMN's own Adam; CoNN's updates are unchanged."""
+    from jaxdc.agents.a2c import make_optimizer
+
+    net, params = nets["omn_conn"]
+    obs, h, actions, returns, targets = _batch(7)
+    cfg = A2CConfig(total_steps=32 * 16 * 10)
+    grad = jax.jit(jax.grad(lambda p: a2c_loss(p, net.apply, obs, h, actions, returns, cfg, targets)[0]))
+
+    def steps(tx, n=3):
+        p, state = params, tx.init(params)
+        deltas = []
+        for _ in range(n):
+            u, state = tx.update(grad(p), state, p)
+            deltas.append(u)
+            p = jax.tree_util.tree_map(lambda a, b: a + b, p, u)
+        return deltas
+
+    base = steps(make_optimizer(cfg))
+    same = steps(make_optimizer(A2CConfig(total_steps=cfg.total_steps, aux_lr=cfg.lr), net.aux_params))
+    for a, b in zip(jax.tree_util.tree_leaves(base), jax.tree_util.tree_leaves(same)):
+        np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-12)  # aux_lr == lr: the single Adam exactly
+    fast = make_optimizer(A2CConfig(total_steps=cfg.total_steps, aux_lr=100 * cfg.lr), net.aux_params)
+    first = steps(fast, 1)[0]["params"]
+    for a, b in zip(jax.tree_util.tree_leaves(base[0]["params"]["conn"]), jax.tree_util.tree_leaves(first["conn"])):
+        np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-12)  # CoNN: the same step
+    moved = [(a, b) for a, b in zip(jax.tree_util.tree_leaves(base[0]["params"]["omn"]),
+                                    jax.tree_util.tree_leaves(first["omn"])) if np.abs(a).max() > 0]
+    assert moved
+    for a, b in moved:  # Adam's first step is lr * sign(g): OMN's is 100 times larger
+        np.testing.assert_allclose(b, 100 * a, rtol=1e-4, atol=1e-10)
+    with pytest.raises(ValueError, match="aux_lr"):
+        A2CConfig(aux_lr=0.0)
+    with pytest.raises(ValueError, match="aux_lr"):
+        make_optimizer(A2CConfig(aux_lr=1e-3))  # no aux_params
+    with pytest.raises(ValueError, match="no parameters named"):
+        make_optimizer(A2CConfig(aux_lr=1e-3), ("nope",)).init(params)
+
+
 def test_conn_reads_omns_prediction(nets):
     net, params = nets["omn_conn"]
     obs = _obs(6)

@@ -109,6 +109,8 @@ def test_emnn_reports_opponent_accuracy_and_ships_loadable_parameters(emnn_run):
     (["--net", "omn_conn", "--history", "-1"], "history (k) must be an int >= 1 for omn_conn"),
     (["--net", "imnn", "--history", "x"], "--history must be an integer"),
     (["--alpha", "-0.001"], "--alpha must be >= 0"),
+    (["--net", "emnn", "--omn-lr", "0.001"], "--omn-lr sets OMN's learning rate and applies to --net omn_conn only"),
+    (["--net", "omn_conn", "--omn-lr", "0"], "--omn-lr must be > 0"),
     (["--steps", "16"], "total_steps (16) must be >= num_envs * t_max (128)"),
 ])
 def test_bad_arguments(capsys, tmp_path, extra, match):

@@ -23,7 +23,8 @@ Losses: VNN and IMNN the A2C loss (section 5.4.2); EMNN adds ``--alpha``
 times the cross-entropy of Eq. 5.1 (Algorithm 11; 0.001, or 0.0001);
 OMN + CoNN adds OMN's cross-entropy with weight 1, which trains OMN alone
 (Algorithm 12; see :mod:`jaxdc.nets.omn_conn`), so ``--alpha`` does not
-apply to it.
+apply to it. ``--omn-lr`` (an option, not in the thesis) gives OMN's
+parameters their own initial learning rate (``A2CConfig.aux_lr``).
 """
 
 from __future__ import annotations
@@ -74,6 +75,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--net", choices=NETS, default="omn_conn", help="network to train (section 5.4)")
     p.add_argument("--alpha", type=nonnegative_float("--alpha"), default=0.001,
                    help="EMNN: weight of the opponent-action cross-entropy (Eq. 5.1; 0.001 or 0.0001)")
+    p.add_argument("--omn-lr", type=positive(float, "--omn-lr"), default=None,
+                   help="OMN + CoNN: initial learning rate of OMN's parameters, annealed to 0 like --lr by OMN's own "
+                        "Adam (default: --lr, Algorithm 12's one update). Not in the thesis")
     p.add_argument("--energy", type=positive(float, "--energy"), default=15.0,
                    help="maximum (and initial) energy (15; 10 and 20 in Figs. 5.8-5.9)")
     p.add_argument("--grid-size", type=_int("--grid-size"), default=5, help="N (>= 2)")
@@ -134,11 +138,14 @@ class Run(TrainingRun):
         self.env, self.env_params = make_env(args)  # validates grid, strategies, energy
         self.out = args.out or os.path.join("runs", f"dcg-{args.net}-e{args.energy:g}-s{args.seed}")
         self.ckpt_dir = os.path.join(self.out, "checkpoints")
+        if args.omn_lr is not None and args.net != "omn_conn":
+            raise ValueError(f"--omn-lr sets OMN's learning rate and applies to --net omn_conn only, not {args.net!r}")
         aux = args.net in AUX_NETS
         aux_coef = args.alpha if args.net == "emnn" else 1.0
         self.config = A2CConfig(total_steps=args.steps, num_envs=args.envs, t_max=args.t_max, lr=args.lr,
                                 gamma=args.gamma, entropy_coef=args.entropy, value_coef=args.value_coef,
-                                max_grad_norm=args.max_grad_norm, aux_coef=aux_coef)
+                                max_grad_norm=args.max_grad_norm, aux_coef=aux_coef,
+                                aux_lr=args.omn_lr)
         self.trainer = a2c.make_train(self.config, self.env, self.env_params, self.net,
                                       aux_target=(lambda info: info["opponent_action"]) if aux else None)
         self.metadata = {

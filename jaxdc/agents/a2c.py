@@ -88,6 +88,11 @@ class A2CConfig:
         The learning rate still falls linearly per update. Not in the thesis.
       normalize_advantages: standardize the advantages of each minibatch
         (mean 0, SD 1). Not in the thesis.
+      aux_lr: initial learning rate of the auxiliary network's own parameters
+        (those under the top-level names in the network's ``aux_params``, e.g.
+        OMN's in OMN + CoNN), annealed to 0 like ``lr`` by a second Adam;
+        ``None`` (default) trains every parameter with ``lr``, as Algorithm 12's
+        one update does. Not in the thesis.
     """
 
     total_steps: int = 1_000_000
@@ -108,6 +113,7 @@ class A2CConfig:
     epochs: int = 1
     minibatches: int = 1
     normalize_advantages: bool = False
+    aux_lr: float | None = None
 
     def __post_init__(self):
         for name in ("total_steps", "num_envs", "t_max", "unroll", "epochs", "minibatches"):
@@ -116,6 +122,8 @@ class A2CConfig:
                 raise ValueError(f"{name} must be an int >= 1, got {v!r}")
         if not self.lr > 0:
             raise ValueError(f"lr (learning rate) must be > 0, got {self.lr!r}")
+        if self.aux_lr is not None and not self.aux_lr > 0:
+            raise ValueError(f"aux_lr (learning rate of the auxiliary network) must be > 0 or None, got {self.aux_lr!r}")
         if not 0 <= self.gamma <= 1:
             raise ValueError(f"gamma must be in [0, 1], got {self.gamma!r}")
         for name in ("value_coef", "entropy_coef", "aux_coef"):
@@ -229,15 +237,42 @@ def huber(x, delta: float = 1.0):
     return jnp.where(ax <= delta, 0.5 * x * x, delta * (ax - 0.5 * delta))
 
 
-def lr_schedule(config: A2CConfig):
-    """Learning rate per update: ``lr`` linearly to 0 at update ``num_updates`` (i.e. at ``T_max`` steps)."""
-    return optax.linear_schedule(config.lr, 0.0, config.num_updates)
+def lr_schedule(config: A2CConfig, lr: float | None = None):
+    """Learning rate per update: ``lr`` (default ``config.lr``) linearly to 0 at update ``num_updates`` (at ``T_max``)."""
+    return optax.linear_schedule(config.lr if lr is None else lr, 0.0, config.num_updates)
 
 
-def make_optimizer(config: A2CConfig):
-    """Adam(b1, b2) on :func:`lr_schedule` (per update, whatever ``steps_per_update``), optional norm clipping."""
-    per_update, k = lr_schedule(config), config.steps_per_update
-    adam = optax.adam(per_update if k == 1 else (lambda count: per_update(count // k)), b1=config.b1, b2=config.b2)
+def _adam(config: A2CConfig, lr: float | None = None):
+    """Adam(b1, b2) on :func:`lr_schedule` of ``lr``, stepped per update whatever ``steps_per_update``."""
+    per_update, k = lr_schedule(config, lr), config.steps_per_update
+    return optax.adam(per_update if k == 1 else (lambda count: per_update(count // k)), b1=config.b1, b2=config.b2)
+
+
+def aux_param_labels(params, names) -> Any:
+    """``"aux"`` for every leaf under a top-level parameter name in ``names`` (e.g. ``("omn",)``), else ``"main"``."""
+    names = tuple(names)
+    inner = params["params"] if isinstance(params, dict) and "params" in params else params
+    missing = [n for n in names if n not in inner]
+    if missing:
+        raise ValueError(f"aux_params {names}: no parameters named {missing}; the network has {sorted(inner)}")
+    labels = {k: jax.tree_util.tree_map(lambda _, k=k: "aux" if k in names else "main", v) for k, v in inner.items()}
+    return {**params, "params": labels} if inner is not params else labels
+
+
+def make_optimizer(config: A2CConfig, aux_params=None):
+    """Adam(b1, b2) on :func:`lr_schedule` (per update, whatever ``steps_per_update``), optional norm clipping.
+
+    With ``config.aux_lr`` (an option, not in the thesis) the parameters under the top-level names
+    ``aux_params`` get their own Adam with initial learning rate ``aux_lr`` (``optax.multi_transform``);
+    Adam is element-wise, so with ``aux_lr == lr`` this is the single Adam exactly.
+    """
+    adam = _adam(config)
+    if config.aux_lr is not None:
+        if not aux_params:
+            raise ValueError("aux_lr needs a network with aux_params (the top-level parameter names of its "
+                             "auxiliary network, e.g. OMNCoNN's ('omn',))")
+        adam = optax.multi_transform({"main": adam, "aux": _adam(config, config.aux_lr)},
+                                     functools.partial(aux_param_labels, names=aux_params))
     if config.max_grad_norm is None:
         return adam
     return optax.chain(optax.clip_by_global_norm(config.max_grad_norm), adam)
@@ -352,7 +387,10 @@ def make_train(config: A2CConfig, env, env_params, net, heuristics: Callable | N
     if getattr(net, "has_aux", False) and aux_target is None:
         raise ValueError(f"{type(net).__name__} has an auxiliary head: pass aux_target=info -> labels [B] "
                          "(for the DCG: lambda info: info['opponent_action'])")
-    tx = make_optimizer(config)
+    if config.aux_lr is not None and not getattr(net, "aux_params", None):
+        raise ValueError(f"aux_lr={config.aux_lr!r}: {type(net).__name__} has no separate auxiliary network "
+                         "(aux_params); only OMN + CoNN has one")
+    tx = make_optimizer(config, getattr(net, "aux_params", None))
     value_fn = functools.partial(net.apply, method="value")
     needs_old_policy = config.gae_lambda < 1 or config.clip_eps is not None or config.normalize_advantages
 

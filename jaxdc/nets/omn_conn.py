@@ -27,7 +27,9 @@ gradient history and the shared learning-rate schedule. So one Adam on the
 union is exactly two Adams, one per network, each on its own loss with the
 same schedule -- the two updates of Algorithm 12. (This fails with a global
 gradient-norm clip, which couples the two; ``A2CConfig.max_grad_norm`` is off
-by default.)
+by default.) Because the two Adams are separate, OMN may also get its own
+initial learning rate (``A2CConfig.aux_lr``, ``train.dcg --omn-lr``; an option,
+not in the thesis): ``aux_params = ("omn",)`` names its parameters.
 """
 
 from __future__ import annotations
@@ -68,6 +70,8 @@ class OMNCoNN(nn.Module):
     history: int = 10
     uses_heuristics = False
     has_aux = True
+    #: OMN's parameters (top-level name), for a separate learning rate (``A2CConfig.aux_lr``; not in the thesis).
+    aux_params = ("omn",)
 
     def setup(self):
         self.omn = OMN(self.num_actions)
