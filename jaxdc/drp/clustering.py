@@ -51,16 +51,15 @@ def _bucket(size, n):
     return n if k >= 0.9 * n else min(k, n)
 
 
-def _width(area):
-    """The one batch width of a size bucket whose arrays have ``area`` entries: 4096 jobs for
-    pairs (``K = 2``), 1024 for ``K = 4``, 256 for ``K = 8``, 64 above.
+def _widths(area):
+    """The two batch widths of a size bucket whose arrays have ``area`` entries: 64 and a wide one
+    (``2**20 / area`` jobs, 64 to 4096).
 
-    One width per bucket means one compiled program per (builder, bucket); XLA takes
-    seconds per program on a CPU. Calls on small clusters cost mostly their fixed
-    overhead (a few ms), so they get wide batches; larger ones are compute bound at 64
-    jobs already, and a part-filled batch costs as much as a full one.
+    Each width is one compiled program per (builder, bucket), and XLA takes seconds per
+    program on a CPU, so there are only two: calls on small clusters cost mostly their
+    fixed overhead and want wide batches, but a part-filled batch costs as much as a full one.
     """
-    return int(max(64, min(4096, 2 ** 14 // area)))
+    return 64, int(max(64, min(4096, 2 ** 20 // area)))
 
 
 def _bucketed(sizes, n, run, order=None, area=lambda K: K * K):
@@ -68,8 +67,9 @@ def _bucketed(sizes, n, run, order=None, area=lambda K: K * K):
 
     Jobs are grouped by :func:`_bucket` of ``sizes``, sorted by ``order``
     (default: their size) so that jobs of similar loop length share a
-    ``while_loop``, and cut into chunks of :func:`_width`; ``pad`` is ``part``
-    padded to that width by repeating its first job, so each bucket compiles once.
+    ``while_loop``, and cut into chunks of the wide width of :func:`_widths`
+    while at least a quarter of one is left, then of 64; ``pad`` is ``part``
+    padded to its width by repeating its first job.
     """
     sizes = np.asarray(sizes)
     order = sizes if order is None else np.asarray(order)
@@ -77,10 +77,13 @@ def _bucketed(sizes, n, run, order=None, area=lambda K: K * K):
     for K in np.unique(buckets):
         sel = np.flatnonzero(buckets == K)
         sel = sel[np.argsort(order[sel], kind="stable")]
-        width = _width(area(int(K)))
-        for start in range(0, len(sel), width):
+        small, wide = _widths(area(int(K)))
+        start = 0
+        while start < len(sel):
+            width = wide if len(sel) - start > wide // 4 else small
             part = sel[start:start + width]
             run(int(K), part, np.concatenate([part, np.full(width - len(part), part[0])]))
+            start += width
 
 
 def _members(masks, K):
