@@ -243,3 +243,62 @@ def ceiling(env: DCG, params: EnvParams, rec: Record, chunk: int = 256) -> dict:
             res["per_strategy"][name] = {"steps": int(m.sum()), "accuracy": float(hit[m].mean()),
                                          "deterministic": float(out["deterministic"][m].mean())}
     return res
+
+
+def supervised_omn(env: DCG, params: EnvParams, net, net_params, key, lr: float = 1e-4, updates: int = 1953,
+                   num_envs: int = 16, t_max: int = 32, evals: int = 3, eval_envs: int = 64,
+                   eval_steps: int = 64) -> list[dict]:
+    """How far OMN gets alone: OMN (:class:`jaxdc.nets.omn_conn.OMN`) trained only on Eq. 5.1's cross-entropy.
+
+    The games are played by a fixed collector (``net`` with ``net_params``, sampling from its policy) in
+    A2C's batches (``num_envs`` games x ``t_max`` steps per update, auto-reset); one Adam step per batch with
+    the learning rate annealed linearly from ``lr`` to 0 over ``updates`` (section 5.5.2's schedule). Returns
+    ``evals`` rows ``{"updates", "train_loss", "train_accuracy", "accuracy"}``; ``accuracy`` is measured on
+    ``eval_envs x eval_steps`` held-out steps of the same collector.
+    """
+    import optax
+
+    from jaxdc.agents.a2c import aux_cross_entropy
+    from jaxdc.nets.omn_conn import OMN
+
+    def rollout(obs, state, k, n_envs, steps):
+        def step(carry, k_):
+            obs, state = carry
+            k_act, k_env = jax.random.split(k_)
+            logits = net.apply(net_params, obs)[0]
+            action = jax.random.categorical(k_act, logits).astype(jnp.int32)
+            obs2, state2, *_, info = step_batch(env, k_env, state, action, params)
+            return (obs2, state2), (obs, info["opponent_action"])
+
+        (obs, state), (x, y) = jax.lax.scan(step, (obs, state), jax.random.split(k, steps))
+        return obs, state, x.reshape((-1,) + x.shape[2:]), y.reshape(-1)
+
+    k_test, k_test_run, k_reset, k_init, k_run = jax.random.split(key, 5)
+    reset = jax.vmap(env.reset, in_axes=(0, None))
+    obs, state = reset(jax.random.split(k_test, eval_envs), params)
+    _, _, test_x, test_y = jax.jit(rollout, static_argnums=(3, 4))(obs, state, k_test_run, eval_envs, eval_steps)
+    obs, state = reset(jax.random.split(k_reset, num_envs), params)
+    omn = OMN(grid.NUM_ACTIONS)
+    omn_params = omn.init(k_init, obs)
+    tx = optax.adam(optax.linear_schedule(lr, 0.0, updates), b1=0.9, b2=0.999)
+
+    @jax.jit
+    def update(carry):
+        p, opt, obs, state, k = carry
+        k, k_roll = jax.random.split(k)
+        obs, state, x, y = rollout(obs, state, k_roll, num_envs, t_max)
+        (loss, acc), g = jax.value_and_grad(lambda q: aux_cross_entropy(omn.apply(q, x), y), has_aux=True)(p)
+        u, opt = tx.update(g, opt, p)
+        return (optax.apply_updates(p, u), opt, obs, state, k), (loss, acc)
+
+    carry, rows, done = (omn_params, tx.init(omn_params), obs, state, k_run), [], 0
+    for e in range(evals):
+        metrics = []
+        for _ in range(updates * (e + 1) // evals - done):  # one jitted update per call: fast on XLA:CPU
+            carry, m = update(carry)
+            metrics.append(m)
+        done = updates * (e + 1) // evals
+        loss, acc = (float(np.mean(jax.device_get(list(v)))) for v in zip(*metrics))
+        test = float(jnp.mean(jnp.argmax(omn.apply(carry[0], test_x), -1) == test_y))
+        rows.append({"updates": done, "train_loss": loss, "train_accuracy": acc, "accuracy": test})
+    return rows
