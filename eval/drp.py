@@ -19,24 +19,11 @@ import time
 
 import numpy as np
 
+from jaxdc.io import atomic_write, enable_compilation_cache
+
 FIGURE_REWARDS = {"3.1": "4-6", "3.2": "4-6", "3.3": "4-6", "3.4": "1-9", "3.5": "5"}
 DEFAULT_ALPHAS = tuple(range(0, 85, 5))
 OUT_DIR = os.path.join("results", "drp")
-
-
-def _atomic_write(path, data: bytes | str):
-    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-    tmp = f"{path}.tmp{os.getpid()}"
-    with open(tmp, "wb") as f:
-        f.write(data.encode() if isinstance(data, str) else data)
-    os.replace(tmp, path)
-
-
-def _enable_cache():
-    import jax
-
-    jax.config.update("jax_compilation_cache_dir", os.path.join(os.path.expanduser("~"), ".cache", "jaxdc_drp_xla"))
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
 
 
 # ----------------------------------------------------------------------------- solving
@@ -96,7 +83,7 @@ def cmd_plan(args):
     (reward, tours), = solve_instances(args.builder, args.clustering, D, beta, psi, [0], [graph.alpha])
     result = {"expected_reward": float(reward), "robots": len(tours), "tours": tours}
     name = os.path.splitext(os.path.basename(args.graph))[0]
-    _atomic_write(os.path.join(args.out, f"plan_{name}_{args.builder}_{args.clustering}.json"), json.dumps(result))
+    atomic_write(os.path.join(args.out, f"plan_{name}_{args.builder}_{args.clustering}.json"), json.dumps(result))
     if args.json:
         print(json.dumps(result))
     else:
@@ -110,7 +97,7 @@ def cmd_plan(args):
         buf = io.BytesIO()
         draw_plan(graph, tours, title=f"{args.builder.upper()} + {args.clustering.upper()}: {len(tours)} robot(s), "
                                       f"expected reward {reward:.3f}").savefig(buf, format="png", dpi=100)
-        _atomic_write(args.draw, buf.getvalue())
+        atomic_write(args.draw, buf.getvalue())
         if not args.json:
             print(f"tours drawn to {args.draw}")
     return 0
@@ -169,7 +156,7 @@ def run_experiment(rewards, graphs, nodes, alphas, base, seed, builders, cluster
 def _worker(task):
     cache, *rest = task
     if cache:
-        _enable_cache()
+        enable_compilation_cache()
     return run_experiment(*rest, quiet=True)
 
 
@@ -237,7 +224,7 @@ def _plot(rows, alphas, builders, figure, path):
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=80)
     plt.close(fig)
-    _atomic_write(path, buf.getvalue())
+    atomic_write(path, buf.getvalue())
 
 
 def cmd_figure(args):
@@ -248,7 +235,7 @@ def cmd_figure(args):
     if args.quick:
         args.graphs, args.nodes = 10, 30
     if args.cache:
-        _enable_cache()
+        enable_compilation_cache()
     config = {"rewards": rewards, "graphs": args.graphs, "nodes": args.nodes, "alphas": alphas,
               "base": args.base, "seed": args.seed}
     tag = f"r{rewards}_g{args.graphs}_n{args.nodes}_{args.base}_s{args.seed}"
@@ -271,13 +258,13 @@ def cmd_figure(args):
         norm, rows = summarise(raw, alphas)
         cached = {"config": config, "wall_seconds": wall, "timing": timing, "normaliser": norm, "rows": rows,
                   "raw": {f"{c}_{b}": r.tolist() for (c, b), r in raw.items()}}
-        _atomic_write(data_path, json.dumps(cached))
+        atomic_write(data_path, json.dumps(cached))
         buf = io.StringIO()
         w = csv.DictWriter(buf, fieldnames=["clustering", "builder", "alpha", "mean", "sd", "pgc_over_nc"])
         w.writeheader()
         for r in rows:
             w.writerow(r)
-        _atomic_write(data_path[:-5] + ".csv", buf.getvalue())
+        atomic_write(data_path[:-5] + ".csv", buf.getvalue())
     png = os.path.join(args.out, f"fig{args.figure.replace('.', '_')}_{tag}.png")
     _plot(cached["rows"], alphas, BUILDERS, args.figure, png)
     print(json.dumps({"figure": args.figure, "data": data_path, "png": png,
@@ -314,7 +301,7 @@ def cmd_gaps(args):
                          "graphs": int(ok.sum())})
     out = {"config": {"graphs": args.graphs, "nodes": args.nodes, "size": args.size, "alphas": alphas,
                       "base": args.base, "seed": args.seed}, "rows": rows}
-    _atomic_write(os.path.join(args.out, f"gaps_n{args.nodes}_g{args.graphs}.json"), json.dumps(out, indent=1))
+    atomic_write(os.path.join(args.out, f"gaps_n{args.nodes}_g{args.graphs}.json"), json.dumps(out, indent=1))
     for r in rows:
         print(f"{r['clustering']:>3} {r['builder']:>3}: mean heuristic/optimal {r['mean_ratio']:.4f}, "
               f"worst {r['min_ratio']:.4f}, optimal on {100 * r['optimal_share']:.0f}% of {r['graphs']} graphs")
@@ -343,7 +330,7 @@ def main(argv=None):
     pf.add_argument("--seed", type=int, default=0)
     pf.add_argument("--quick", action="store_true", help="10 graphs of 30 nodes")
     pf.add_argument("--force", action="store_true", help="recompute even if cached results exist")
-    pf.add_argument("--cache", action="store_true", help="persistent XLA compilation cache in ~/.cache")
+    pf.add_argument("--cache", action="store_true", help="persistent XLA compilation cache (~/.cache/jaxdc/xla; JAXDC_NO_CACHE=1 turns it off)")
     pf.add_argument("--workers", type=int, default=1, help="processes (NC builders run in parallel)")
     pf.add_argument("--quiet", action="store_true")
     pg = sub.add_parser("gaps", help="heuristics against the exact solver on small graphs")
