@@ -9,7 +9,7 @@ def test_train_command_uses_the_given_steps_unless_the_entry_fixes_them():
     assert cmd[cmd.index("--steps") + 1] == "123" and cmd[cmd.index("--seed") + 1] == "4"
     assert cmd[cmd.index("--out") + 1] == "runs/x/enn"
     single = ship.train_command("enn_single_item", 123, 0, "runs")
-    assert single.count("--steps") == 1 and single[single.index("--steps") + 1] == "2000000"
+    assert single.count("--steps") == 1 and single[single.index("--steps") + 1] == "4000000"
     assert single[single.index("--total-reward") + 1] == "1"
 
 

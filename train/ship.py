@@ -3,7 +3,7 @@
     python -m train.ship                      # all of them (4 runs of 1M steps, 2 at a time)
     python -m train.ship --only enn eqn       # some of them
     python -m train.ship --export-only        # re-export from finished run folders
-    python -m train.ship --only enn_single_item   # the single-item ENN (beyond the thesis, 2M steps)
+    python -m train.ship --only enn_single_item   # the single-item ENN (beyond the thesis, 4M steps)
 
 Each shipped network is trained with the defaults of ``python -m train.dcp``
 (the thesis' hyper-parameters, section 4.5), seed 0, 1M steps, in the
@@ -43,7 +43,7 @@ EXTRA = {
 BEYOND = {
     "enn_single_item": ("4.8 (beyond the thesis: trained on one item)",
                         ["--net", "enn", "--risk", "high", "--total-reward", "1", "--energy", "8", "16",
-                         "--steps", "2000000", "--eval-every", "500000", "--eval-episodes", "2000", "--greedy-eval"]),
+                         "--steps", "4000000", "--eval-every", "1000000", "--eval-episodes", "2000", "--greedy-eval"]),
 }
 ALL = {**SHIPPED, **EXTRA, **BEYOND}
 
@@ -97,7 +97,7 @@ def main(argv=None) -> int:
     p.add_argument("--only", nargs="+", choices=sorted(ALL), default=None,
                    help=f"names to regenerate (default: {', '.join(SHIPPED)})")
     p.add_argument("--steps", type=int, default=1_000_000,
-                   help="environment steps per run (thesis: 1M; enn_single_item has its own 2M)")
+                   help="environment steps per run (thesis: 1M; enn_single_item has its own 4M)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--runs", default=os.path.join("runs", "ship"), help="folder of the run folders")
     p.add_argument("--out", default=os.path.join(ASSETS, "dcp"), help="where the parameter files go")
