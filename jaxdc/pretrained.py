@@ -142,11 +142,11 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         raise ValueError(f"{source} holds a {name!r} network, not {net!r}")
     if check_meta is not None:
         check_meta(meta, source)
+    seeds = meta.get("seeds")
+    if not seeds and run_seed is not None and run_seed != meta.get("seed", run_seed):
+        raise ValueError(f"{source} holds the network of seed {meta.get('seed')}, not of run_seed {run_seed}")
     if os.path.isdir(path):
-        seeds = meta.get("seeds")
         if not seeds:
-            if run_seed is not None and run_seed != meta.get("seed", run_seed):
-                raise ValueError(f"{source} is a run of seed {meta.get('seed')}, not of seed {run_seed}")
             state, meta = checkpoint.restore(ckpt, restore_target(name, meta, source), {"net": name})
             return name, state.params, dict(meta, problem=problem, updates=checkpoint.latest_step(ckpt)), ckpt
         if run_seed not in seeds:

@@ -55,3 +55,7 @@ def test_multi_seed_run_folder_gives_the_chosen_seed(tmp_path):
         learned.load(tmp_path / "run")
     with pytest.raises(ValueError, match=r"seeds \[3, 7\].*got 5"):
         learned.load(tmp_path / "run", run_seed=5)
+    exported = pretrained.save(tmp_path / "seed7", got.params, dict(got.metadata))
+    assert learned.load(exported, run_seed=7).metadata["seed"] == 7
+    with pytest.raises(ValueError, match="seed 7, not of run_seed 3"):
+        learned.load(exported, run_seed=3)

@@ -46,11 +46,17 @@ def test_report_shows_learned_row_source_and_incr(tmp_path):
     assert "| safe_reward | 13.94 | 12.50 | -19.49 | — | 38.38 | 40.00 |" in page
 
 
-def test_report_copies_dcg_figures_and_benchmarks_with_links_fixed(tmp_path):
+def _results_with_one_dcp_table(tmp_path):
+    """A results folder holding only an empty Table 4.8 (the page needs some DCP result)."""
     res = tmp_path / "results"
     (res / "dcp").mkdir(parents=True)
     (res / "dcp" / "table_4.8.json").write_text(json.dumps(
         {"table": "4.8", "caption": "c", "command": "python -m eval.dcp --table 4.8", "thesis": {}, "ours": {}}))
+    return res
+
+
+def test_report_copies_dcg_figures_and_benchmarks_with_links_fixed(tmp_path):
+    res = _results_with_one_dcp_table(tmp_path)
     (res / "dcg").mkdir()
     (res / "dcg" / "figure_standard.md").write_text(
         "### Fig 5.6\n\n`python -m eval.dcg figure all`\n\n![f](../../docs/img/dcg_fig5_6.png)\n")
@@ -66,10 +72,7 @@ def test_report_copies_dcg_figures_and_benchmarks_with_links_fixed(tmp_path):
 
 
 def test_report_says_what_to_run_for_missing_sections(tmp_path):
-    res = tmp_path / "results"
-    (res / "dcp").mkdir(parents=True)
-    (res / "dcp" / "table_4.8.json").write_text(json.dumps(
-        {"table": "4.8", "caption": "c", "command": "python -m eval.dcp --table 4.8", "thesis": {}, "ours": {}}))
+    res = _results_with_one_dcp_table(tmp_path)
     out = tmp_path / "r.md"
     assert report.main(["--results", str(res), "--out", str(out), "--notes", "none"]) == 0
     assert "No results yet: run `python -m eval.dcg figure all`" in out.read_text()
