@@ -97,6 +97,24 @@ def test_emnn_reports_opponent_accuracy_and_ships_loadable_parameters(emnn_run):
     assert net.apply(params, np.zeros((1, 3, 3, 4), np.float32))[2].shape == (1, 9)
 
 
+def test_reward_area_training_is_recorded_and_replayed(tmp_path):
+    """--reward-area trains on the one-item game of section 5.5.5; its metadata replays that game."""
+    from jaxdc.dcg import learned as learned_lib
+
+    out = str(tmp_path / "area")
+    run = cli.Run(cli.build_parser().parse_args(TINY + ["--total-reward", "1", "--reward-area", "2", "--out", out]))
+    assert run.env.reward_area == 2 and run.env.total_reward == 1
+    assert run.metadata["reward_area"] == 2 and run.metadata["total_reward"] == 1
+    learned = learned_lib.Learned("vnn", run.net, None, run.metadata, "test")
+    env, _ = learned.game()
+    assert env.reward_area == 2 and env.total_reward == 1
+    env, _ = learned.game(reward_area=1)  # evaluated on another reward area
+    assert env.reward_area == 1 and env.total_reward == 1
+    assert "bottom-right 2x2 square" in learned.describe()
+    # a run without the option records no reward_area, so runs made before it still resume
+    assert "reward_area" not in cli.Run(cli.build_parser().parse_args(TINY + ["--out", out])).metadata
+
+
 @pytest.mark.parametrize("extra, match", [
     (["--net", "dqn"], "invalid choice"),
     (["--strategies", "patrol,sneaky"], "unknown strategy 'sneaky'"),
@@ -112,6 +130,8 @@ def test_emnn_reports_opponent_accuracy_and_ships_loadable_parameters(emnn_run):
     (["--net", "emnn", "--omn-lr", "0.001"], "--omn-lr sets OMN's learning rate and applies to --net omn_conn only"),
     (["--net", "omn_conn", "--omn-lr", "0"], "--omn-lr must be > 0"),
     (["--steps", "16"], "total_steps (16) must be >= num_envs * t_max (128)"),
+    (["--reward-area", "0"], "--reward-area must be > 0"),
+    (["--reward-area", "4"], "reward_area must be between 1 and grid_size (3), got 4"),
 ])
 def test_bad_arguments(capsys, tmp_path, extra, match):
     _fails(capsys, TINY + ["--out", str(tmp_path / "x")] + extra, match)

@@ -81,7 +81,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--energy", type=positive(float, "--energy"), default=15.0,
                    help="maximum (and initial) energy (15; 10 and 20 in Figs. 5.8-5.9)")
     p.add_argument("--grid-size", type=_int("--grid-size"), default=5, help="N (>= 2)")
-    p.add_argument("--total-reward", type=positive(int, "--total-reward"), default=10)
+    p.add_argument("--total-reward", type=positive(int, "--total-reward"), default=None,
+                   help="sum of the item rewards (default 10, section 5.5.1; 1 with --reward-area)")
+    p.add_argument("--reward-area", type=positive(int, "--reward-area"), default=None, metavar="S",
+                   help="train on the game of section 5.5.5 (Figs. 5.10-5.12): one unit item uniform in the "
+                        "bottom-right S x S square. Not in the thesis, which trains on the standard game only")
     p.add_argument("--strategies", default=",".join(STANDARD_STRATEGIES),
                    help="comma-separated opponent strategies, one drawn per episode")
     p.add_argument("--history", type=_int("--history"), default=10,
@@ -122,7 +126,7 @@ def make_env(args) -> tuple[DCG, object]:
     """The DCG of the run (section 5.5.1 settings by default) and its params; VNN's needs no history planes."""
     history_net = args.net != "vnn"
     env = DCG(grid_size=args.grid_size, total_reward=args.total_reward, strategies=args.strategies,
-              history=args.history if history_net else 1, obs_history=history_net)
+              history=args.history if history_net else 1, obs_history=history_net, reward_area=args.reward_area)
     return env, env.make_params(energy=args.energy, max_steps=args.max_steps)
 
 
@@ -150,11 +154,14 @@ class Run(TrainingRun):
                                       aux_target=(lambda info: info["opponent_action"]) if aux else None)
         self.metadata = {
             "format": 1, "net": args.net, "problem": "dcg", "grid_size": args.grid_size,
-            "total_reward": args.total_reward, "strategies": list(self.env.strategies), "energy": args.energy,
+            "total_reward": self.env.total_reward,
+            "strategies": list(self.env.strategies), "energy": args.energy,
             "max_steps": args.max_steps, "history": args.history if args.net != "vnn" else 0,
             "alpha": args.alpha if args.net == "emnn" else None, "seed": args.seed,
             "algorithm": dataclasses.asdict(self.config),
         }
+        if args.reward_area is not None:  # only when set, so that runs made before the option still resume
+            self.metadata["reward_area"] = args.reward_area
 
         @jax.jit
         def evaluate(params, key):

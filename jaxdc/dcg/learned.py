@@ -19,7 +19,6 @@ of training, with optional changes (energy, strategy set, reward area, ...).
 from __future__ import annotations
 
 import dataclasses
-import inspect
 from typing import Any
 
 import jax
@@ -37,7 +36,7 @@ DEFAULT_SETTING = {"grid_size": 5, "total_reward": 10, "energy": 15.0, "max_step
                    "strategies": list(STANDARD_STRATEGIES), "history": 10, "chase_tie": "straight"}
 #: ``DCG(...)`` options that change the dynamics, taken from the metadata (``"env"`` or top level) when present.
 ENV_OPTION_KEYS = ("history_fill", "items_on_base", "opponent_start", "patrol_target", "reward_when_caught",
-                   "energy_metric")
+                   "energy_metric", "reward_area")
 
 
 def make_network(name: str, history: int = 10):
@@ -98,13 +97,11 @@ class Learned:
         options = {k: meta_env.get(k, self.metadata.get(k)) for k in ENV_OPTION_KEYS}
         options = {k: v for k, v in options.items() if v is not None}
         if reward_area is not None:
-            if "reward_area" not in inspect.signature(DCG).parameters:
-                raise ValueError("reward_area: this jaxdc.dcg.env.DCG has no reward-area option yet")
             options["reward_area"] = reward_area
         # train.dcg plays VNN without history planes (metadata history 0); VNN reads obs[..., :2] either way
         k = int(s["history"])
         obs_history = bool(self.metadata.get("obs_history", k > 0))
-        env = DCG(grid_size=s["grid_size"], total_reward=1 if reward_area is not None else s["total_reward"],
+        env = DCG(grid_size=s["grid_size"], total_reward=1 if "reward_area" in options else s["total_reward"],
                   strategies=tuple(strategies if strategies is not None else s["strategies"]),
                   history=max(k, 1), obs_history=obs_history, **options)
         params = env.make_params(energy=s["energy"] if energy is None else energy,
@@ -124,7 +121,9 @@ class Learned:
         s = self.setting()
         alpha = self.metadata.get("alpha")
         return (f"{self.net_name}{f' (alpha {alpha:g})' if self.net_name == 'emnn' and alpha is not None else ''} "
-                f"trained on {s['grid_size']}x{s['grid_size']}, {s['total_reward']} rewards, energy {s['energy']:g}, "
+                f"trained on {s['grid_size']}x{s['grid_size']}, {s['total_reward']} rewards"
+                + (f" in the bottom-right {area}x{area} square" if (area := self.metadata.get("reward_area")) else "")
+                + f", energy {s['energy']:g}, "
                 f"strategies {','.join(s['strategies'])}, history {s['history']}, "
                 f"{self.steps or '?'} steps, seed {self.metadata.get('seed', '?')} ({self.source})")
 
