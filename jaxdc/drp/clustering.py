@@ -389,10 +389,36 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=F
 
 
 class _PGCCluster:
-    __slots__ = ("C", "e", "l", "g", "c")
+    __slots__ = ("C", "idx", "e", "l", "g", "c")
 
     def __init__(self, C, e, l, g, c):
         self.C, self.e, self.l, self.g, self.c = C, e, l, g, c
+        self.idx = np.asarray(C)
+
+
+def _pgc_merge(D, Dl, bl, psi, alpha, adj, ci, cj):
+    """Algorithm 3 on ``D`` (array, for the closest-pair block) and ``Dl``, ``bl`` (``D`` and ``beta``
+    as Python lists: the BFS reads single entries, which are much faster from lists; the float64
+    values and operations are the same). Returns ``((ci, cj), e, l, g, c, edge)`` with ``ci`` the
+    cluster whose entry is nearer the base; the merged node list is built only if the merge is made."""
+    d0i, d0j = Dl[0][ci.e], Dl[0][cj.e]
+    if d0i > d0j:
+        ci, cj, d0i, d0j = cj, ci, d0j, d0i
+    k = int(D[ci.idx[:, None], cj.idx].argmin())  # first strict minimum over sorted C_i x sorted C_j
+    vi, vj = ci.C[k // len(cj.C)], cj.C[k % len(cj.C)]
+    l, g = ci.l, ci.g
+    heap, seen = [(Dl[vi][vj], vj)], set()
+    while heap:  # BFS over C_j's tree from v_j*, shortest frontier edge first (lines 17-23)
+        d, v = heapq.heappop(heap)
+        seen.add(v)
+        l += d
+        g += psi ** (d0i + l) * bl[v]
+        row = Dl[v]
+        for u in adj[v]:
+            if u not in seen:
+                heapq.heappush(heap, (row[u], u))
+    c = (1.0 - psi ** (d0i + d0j + l)) * alpha
+    return (ci, cj), ci.e, l, g, c, (vi, vj)
 
 
 def pgc_merge(D, beta, psi, alpha, adj, ci, cj):
@@ -402,24 +428,10 @@ def pgc_merge(D, beta, psi, alpha, adj, ci, cj):
     disjoint, so one dict of lists serves all). Returns the merged record and
     the new MST edge ``(v_i*, v_j*)``; ``adj`` is not modified.
     """
-    if D[0, ci.e] > D[0, cj.e]:
-        ci, cj = cj, ci
-    block = D[ci.C][:, cj.C]
-    k = int(block.argmin())
-    vi, vj = ci.C[k // len(cj.C)], cj.C[k % len(cj.C)]
-    d0 = D[0, ci.e]
-    l, g = ci.l, ci.g
-    heap, seen = [(D[vi, vj], vj)], set()
-    while heap:  # BFS over C_j's tree from v_j*, shortest frontier edge first (lines 17-23)
-        d, v = heapq.heappop(heap)
-        seen.add(v)
-        l += d
-        g += psi ** (d0 + l) * beta[v]
-        for u in adj[v]:
-            if u not in seen:
-                heapq.heappush(heap, (D[u, v], u))
-    c = (1.0 - psi ** (d0 + D[0, cj.e] + l)) * alpha
-    return _PGCCluster(sorted(ci.C + cj.C), ci.e, l, g, c), (vi, vj)
+    D = np.asarray(D, np.float64)
+    (ci, cj), e, l, g, c, edge = _pgc_merge(D, D.tolist(), np.asarray(beta, np.float64).tolist(), float(psi),
+                                            float(alpha), adj, ci, cj)
+    return _PGCCluster(sorted(ci.C + cj.C), e, l, g, c), edge
 
 
 def pgc(D, beta, psi, alpha):
@@ -431,6 +443,7 @@ def pgc(D, beta, psi, alpha):
     D = np.asarray(D, np.float64)
     beta = np.asarray(beta, np.float64)
     psi, alpha = float(psi), float(alpha)
+    Dl, bl = D.tolist(), beta.tolist()
     n = D.shape[0] - 1
     S = {}
     for v in range(1, n + 1):
@@ -439,8 +452,8 @@ def pgc(D, beta, psi, alpha):
     value = {v: S[v].g - S[v].c for v in S}
 
     def evaluate(a, b):
-        k, edge = pgc_merge(D, beta, psi, alpha, adj, S[a], S[b])
-        return (k.g - k.c) - value[a] - value[b], k, edge
+        parts, e, l, g, c, edge = _pgc_merge(D, Dl, bl, psi, alpha, adj, S[a], S[b])
+        return (g - c) - value[a] - value[b], (parts, e, l, g, c), edge
 
     # Pair gains: a dense matrix over slots (upper triangle), first max wins.
     gain = np.full((n + 1, n + 1), -np.inf)
@@ -462,7 +475,8 @@ def pgc(D, beta, psi, alpha):
         a, b = k // (n + 1), k % (n + 1)
         if not gain[a, b] > 0:
             break
-        _, merged, edge = cache.pop((a, b), None) or evaluate(a, b)
+        _, ((ci, cj), e, l, g, c), edge = cache.pop((a, b), None) or evaluate(a, b)
+        merged = _PGCCluster(sorted(ci.C + cj.C), e, l, g, c)
         adj[edge[0]].append(edge[1])
         adj[edge[1]].append(edge[0])
         edges.append(edge)
