@@ -26,12 +26,12 @@ import csv
 import hashlib
 import io
 import json
-import math
 import os
 import shlex
 import sys
 import time
 
+from jaxdc.cli import positive, positive_int
 from jaxdc.dcg.opponents import DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
 from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
 
@@ -40,29 +40,6 @@ IMAGES = os.path.join("docs", "img")
 
 
 # -- argument types -----------------------------------------------------------------------------
-def _positive_int(name):
-    def parse(text):
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 1, got {text!r}") from None
-        if v < 1:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 1, got {v}")
-        return v
-
-    return parse
-
-
-def _energy(text):
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--energy must be a number > 0, got {text!r}") from None
-    if math.isnan(v) or v <= 0:
-        raise argparse.ArgumentTypeError(f"--energy must be > 0, got {text!r}")
-    return v
-
-
 def _strategies(text):
     try:
         return tuple(s.name for s in get_strategies(text))
@@ -78,16 +55,16 @@ def _add_network(p, required=True):
 
 
 def _add_game(p):
-    p.add_argument("--energy", type=_energy, default=None, help="maximum energy (default: as trained; "
+    p.add_argument("--energy", type=positive(float, "--energy", allow_inf=True), default=None, help="maximum energy (default: as trained; "
                    "10/15/20 in Figs. 5.8-5.9)")
     sets = p.add_mutually_exclusive_group()
     sets.add_argument("--strategies", type=_strategies, default=None,
                       help="comma-separated opponent strategies (default: as trained)")
     sets.add_argument("--double-blind", action="store_true",
                       help=f"play {','.join(DOUBLE_BLIND_STRATEGIES)} (section 5.5.7, Figs. 5.18-5.19)")
-    p.add_argument("--reward-area", type=_positive_int("--reward-area"), default=None, metavar="S",
+    p.add_argument("--reward-area", type=positive_int("--reward-area"), default=None, metavar="S",
                    help="one unit item in the bottom-right S x S square (Figs. 5.10-5.12)")
-    p.add_argument("--max-steps", type=_positive_int("--max-steps"), default=None,
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None,
                    help="step cap (default: as trained, 100)")
     p.add_argument("--greedy", action="store_true", help="argmax policy (default: sample from pi, as the thesis)")
 
@@ -98,7 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
                                        "`render` (see `python -m eval.dcg render -h`)")
     _add_network(p)
     _add_game(p)
-    p.add_argument("--episodes", type=_positive_int("--episodes"), default=10_000)
+    p.add_argument("--episodes", type=positive_int("--episodes"), default=10_000)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--rpe-zero", choices=("exclude", "zero"), default="exclude",
                    help="RPE of a game that used no energy: left out (default) or 0")
@@ -116,7 +93,7 @@ def figure_parser() -> argparse.ArgumentParser:
                                             "thesis' claims beside ours.")
     p.add_argument("figure", choices=sorted(FIGURES, key=lambda f: tuple(map(int, f.split(".")))) + ["all"],
                    help="a thesis figure (its pair is made with it: 5.6 and 5.7 are one experiment)")
-    p.add_argument("--episodes", type=_positive_int("--episodes"), default=10_000)
+    p.add_argument("--episodes", type=positive_int("--episodes"), default=10_000)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--nets-dir", default=None, help="folder of .msgpack parameter files (default: the shipped ones)")
     p.add_argument("--greedy", action="store_true")
@@ -135,14 +112,14 @@ def render_parser() -> argparse.ArgumentParser:
     _add_network(p)
     p.add_argument("--strategy", type=_strategies, required=True, help="the opponent strategy, e.g. patrol")
     p.add_argument("--seed", type=int, default=0, help="the game (same seed: same initial state for every network)")
-    p.add_argument("--energy", type=_energy, default=None)
-    p.add_argument("--reward-area", type=_positive_int("--reward-area"), default=None, metavar="S",
+    p.add_argument("--energy", type=positive(float, "--energy", allow_inf=True), default=None)
+    p.add_argument("--reward-area", type=positive_int("--reward-area"), default=None, metavar="S",
                    help="one unit item in the bottom-right S x S square (as in Figs. 5.13-5.15)")
-    p.add_argument("--max-steps", type=_positive_int("--max-steps"), default=30,
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=30,
                    help="steps to play at most (default 30)")
     p.add_argument("--greedy", action="store_true", help="deterministic policy (argmax), as Figs. 5.13-5.15")
-    p.add_argument("--cols", type=_positive_int("--cols"), default=None, help="frames per row in the strip")
-    p.add_argument("--fps", type=_positive_int("--fps"), default=4)
+    p.add_argument("--cols", type=positive_int("--cols"), default=None, help="frames per row in the strip")
+    p.add_argument("--fps", type=positive_int("--fps"), default=4)
     p.add_argument("--out", default=os.path.join(RESULTS, "render"), help="folder for the PNG and GIF")
     return p
 

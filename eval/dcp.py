@@ -37,6 +37,7 @@ import time
 
 import numpy as np
 
+from jaxdc.cli import positive, positive_int
 from jaxdc.core import grid
 from jaxdc.core.paths import PATH_RISK
 from jaxdc.dcp import env as dcp_env
@@ -49,29 +50,6 @@ from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
 COLUMNS = (("reward", 0), ("energy", 2), ("rpe", 4))
 #: Settings of a heuristic evaluation when not given (a learned one takes them from its metadata).
 DEFAULTS = {"risk": "high", "total_reward": 30, "energy": (8.0, 16.0), "max_steps": 1000}
-
-
-def _energy(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"energy must be a number or 'inf', got {text!r}") from None
-    if math.isnan(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"energy must be > 0 (or 'inf'), got {text!r}")
-    return value
-
-
-def _positive_int(name):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 1, got {text!r}") from None
-        if value < 1:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 1, got {value}")
-        return value
-
-    return parse
 
 
 def _probability(text: str) -> float:
@@ -104,16 +82,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default=None,
                    help="risk preset (Table 4.2; default high, or the learned network's)")
     p.add_argument("--risk-map", metavar="FILE", help="N x N risk map (.npy or JSON); overrides --risk")
-    p.add_argument("--grid-size", type=_positive_int("--grid-size"), default=None,
+    p.add_argument("--grid-size", type=positive_int("--grid-size"), default=None,
                    help="N (default 8, the map's, or the learned network's)")
-    p.add_argument("--total-reward", type=_positive_int("--total-reward"), default=None,
+    p.add_argument("--total-reward", type=positive_int("--total-reward"), default=None,
                    help="default 30, or the learned network's")
-    p.add_argument("--energy", nargs=2, type=_energy, metavar=("INIT", "MAX"), default=None,
+    p.add_argument("--energy", nargs=2, type=positive(float, "--energy", allow_inf=True), metavar=("INIT", "MAX"), default=None,
                    help="initial and maximum energy; 'inf inf' for no constraint (default 8 16, or the learned "
                         "network's)")
-    p.add_argument("--episodes", type=_positive_int("--episodes"), default=10_000)
+    p.add_argument("--episodes", type=positive_int("--episodes"), default=10_000)
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--max-steps", type=_positive_int("--max-steps"), default=None,
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None,
                    help="step cap (truncation; default 1000, or the learned network's)")
     # the thesis' ambiguities (docs/ambiguities.md)
     p.add_argument("--start", choices=dcp_env.STARTS, default="random_free")

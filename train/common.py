@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-import math
 import os
 import sys
 import tempfile
@@ -27,40 +26,13 @@ import numpy as np
 
 from jaxdc import checkpoint
 from jaxdc.agents.a2c import A2CConfig, lr_schedule
+from jaxdc.cli import nonnegative_float, positive
 from jaxdc.io import atomic_write, atomic_write_json
 
 #: Exit status of a run stopped by a NaN loss.
 EXIT_NAN = 3
 #: How updates are driven: one jitted update per Python iteration, or ``n`` updates in one ``lax.scan``.
 LAYOUTS = ("loop", "scan")
-
-
-def positive(kind, name):
-    """argparse type: a ``kind`` (int or float) > 0, finite; the error names ``name`` and the value."""
-    def parse(text):
-        try:
-            v = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number > 0, got {text!r}") from None
-        if not v > 0 or (kind is float and math.isinf(v)):
-            raise argparse.ArgumentTypeError(f"{name} must be > 0, got {text!r}")
-        return v
-
-    return parse
-
-
-def nonnegative_float(name):
-    """argparse type: a float >= 0; the error names ``name`` and the value."""
-    def parse(text):
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number >= 0, got {text!r}") from None
-        if not v >= 0:
-            raise argparse.ArgumentTypeError(f"{name} must be >= 0, got {text!r}")
-        return v
-
-    return parse
 
 
 def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eval_episodes: int = 500) -> None:

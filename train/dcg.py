@@ -41,6 +41,7 @@ import jax.numpy as jnp
 from jaxdc import pretrained
 from jaxdc.agents import a2c
 from jaxdc.agents.a2c import A2CConfig
+from jaxdc.cli import integer, nonnegative_float, positive
 from jaxdc.core.env import step_batch
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcg.env import DCG
@@ -48,7 +49,7 @@ from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.io import enable_compilation_cache
 from jaxdc.nets import DCG_NETS, make_dcg_net
-from train.common import EXIT_NAN, TrainingRun, add_a2c_arguments, nonnegative_float, positive
+from train.common import EXIT_NAN, TrainingRun, add_a2c_arguments
 
 NETS = tuple(DCG_NETS)
 #: Networks with the opponent-action head (``has_aux``).
@@ -58,16 +59,6 @@ CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", *LOSS_METRI
               "train_reward", "eval_reward", "eval_reward_sd", "eval_rpe", "eval_opponent_accuracy")
 #: Rollout of the opponent-accuracy evaluation: environments x steps.
 ACCURACY_ENVS, ACCURACY_STEPS = 64, 64
-
-
-def _int(name):
-    def parse(text):
-        try:
-            return int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer, got {text!r}") from None
-
-    return parse
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -80,7 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "Adam (default: --lr, Algorithm 12's one update). Not in the thesis")
     p.add_argument("--energy", type=positive(float, "--energy"), default=15.0,
                    help="maximum (and initial) energy (15; 10 and 20 in Figs. 5.8-5.9)")
-    p.add_argument("--grid-size", type=_int("--grid-size"), default=5, help="N (>= 2)")
+    p.add_argument("--grid-size", type=integer("--grid-size"), default=5, help="N (>= 2)")
     p.add_argument("--total-reward", type=positive(int, "--total-reward"), default=None,
                    help="sum of the item rewards (default 10, section 5.5.1; 1 with --reward-area)")
     p.add_argument("--reward-area", type=positive(int, "--reward-area"), default=None, metavar="S",
@@ -88,7 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "bottom-right S x S square. Not in the thesis, which trains on the standard game only")
     p.add_argument("--strategies", default=",".join(STANDARD_STRATEGIES),
                    help="comma-separated opponent strategies, one drawn per episode")
-    p.add_argument("--history", type=_int("--history"), default=10,
+    p.add_argument("--history", type=integer("--history"), default=10,
                    help="k, the previous agent planes read by IMNN/EMNN/OMN+CoNN (>= 1; VNN ignores it)")
     p.add_argument("--max-steps", type=positive(int, "--max-steps"), default=100, help="episode step cap")
     p.add_argument("--out", default=None, help="run folder (default runs/dcg-NET-eENERGY-sSEED)")

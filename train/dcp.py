@@ -39,9 +39,10 @@ from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import navigators
 from jaxdc.dcp.evaluate import summarize
+from jaxdc.cli import nonnegative_float, positive
 from jaxdc.io import enable_compilation_cache
 from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
-from train.common import EXIT_NAN, TrainingRun, add_a2c_arguments, nonnegative_float, positive, tensorboard_writer
+from train.common import EXIT_NAN, TrainingRun, add_a2c_arguments, tensorboard_writer
 
 #: Networks of the command line: the actor-critics train with A2C, EQN with n-step Q-learning.
 NETS = tuple(sorted(ACTOR_CRITICS)) + ("eqn",)

@@ -1,0 +1,62 @@
+"""argparse value types shared by the command lines (``train.*``, ``eval.*``).
+
+Each type validates at the command line, outside jit, and its error names the
+flag and the value (the house rule for bad input); argparse turns it into a
+usage error with exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+
+def positive(kind, name: str, allow_inf: bool = False):
+    """argparse type: a ``kind`` (int or float) > 0; finite unless ``allow_inf`` (``"inf"`` accepted)."""
+    extra = " (or 'inf')" if allow_inf else ""
+
+    def parse(text):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number > 0{extra}, got {text!r}") from None
+        if not v > 0 or (kind is float and math.isinf(v) and not allow_inf):
+            raise argparse.ArgumentTypeError(f"{name} must be > 0{extra}, got {text!r}")
+        return v
+
+    return parse
+
+
+def nonnegative_float(name: str):
+    """argparse type: a float >= 0."""
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number >= 0, got {text!r}") from None
+        if not v >= 0:
+            raise argparse.ArgumentTypeError(f"{name} must be >= 0, got {text!r}")
+        return v
+
+    return parse
+
+
+def integer(name: str, low: int | None = None):
+    """argparse type: an int (``>= low`` when given)."""
+    what = "an integer" if low is None else f"an integer >= {low}"
+
+    def parse(text):
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be {what}, got {text!r}") from None
+        if low is not None and v < low:
+            raise argparse.ArgumentTypeError(f"{name} must be {what}, got {v}")
+        return v
+
+    return parse
+
+
+def positive_int(name: str):
+    """argparse type: an int >= 1."""
+    return integer(name, low=1)
