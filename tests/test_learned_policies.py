@@ -25,7 +25,7 @@ from jaxdc.dcp.tables import TABLES, incr_percent
 SMALL = {"problem": "dcp", "grid_size": 5, "total_reward": 6, "risk": "high", "energy": [8.0, 16.0],
          "max_steps": 200,
          "env": {"start": "random_free", "items_on_base": True, "idle_terminates": False, "item_order": "drop"}}
-SHIPPED = ("enn", "enn_energy16_32", "linear", "eqn")
+SHIPPED = ("enn", "enn_medium", "enn_low", "enn_energy16_32", "linear", "eqn")
 
 
 def _export(folder, net, grid_size=5, **meta):
@@ -138,7 +138,8 @@ def test_shipped_metadata(name):
     learned = learned_lib.load(pretrained.shipped("dcp", name))
     meta = learned.metadata
     assert meta["problem"] == "dcp" and meta["net"] == name.split("_")[0]
-    assert meta["grid_size"] == 8 and meta["risk"] == "high" and meta["seed"] == 0
+    risk = {"enn_medium": "medium", "enn_low": "low"}.get(name, "high")
+    assert meta["grid_size"] == 8 and meta["risk"] == risk and meta["seed"] == 0
     assert meta["steps"] >= 999_000 and "train.dcp" in meta["command"]
     assert meta["energy"] == ([16.0, 32.0] if name == "enn_energy16_32" else [8.0, 16.0])
     assert learned_lib.shipped_name(meta["net"], meta["risk"], meta["energy"]) == name

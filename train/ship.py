@@ -1,6 +1,6 @@
 """Regenerate the shipped DCP parameters (``jaxdc/assets/dcp``): train with ``train.dcp``, then export.
 
-    python -m train.ship                      # all of them (4 runs of 1M steps, 2 at a time)
+    python -m train.ship                      # all of them (6 runs of 1M steps, 2 at a time)
     python -m train.ship --only enn eqn       # some of them
     python -m train.ship --export-only        # re-export from finished run folders
     python -m train.ship --only enn_single_item   # the single-item ENN (beyond the thesis, 4M steps)
@@ -8,7 +8,7 @@
 Each shipped network is trained with the defaults of ``python -m train.dcp``
 (the thesis' hyper-parameters, section 4.5), seed 0, 1M steps, in the
 setting of the table it fills (section 4.5: the ENN of Table 4.3 also plays
-Tables 4.6 and 4.8; Table 4.7 has its own ENN; the linear learner and EQN
+Tables 4.6 and 4.8; Tables 4.4, 4.5 and 4.7 have their own ENNs; the linear learner and EQN
 are trained in the setting of Table 4.3). The run folders are
 ``--runs/<name>`` (a finished or interrupted run is resumed, so rerunning is
 cheap); the last checkpoint is exported with :func:`jaxdc.pretrained.save`,
@@ -28,14 +28,11 @@ import time
 #: name of the shipped file -> (the tables it fills, train.dcp arguments of its setting)
 SHIPPED = {
     "enn": ("4.3, 4.6, 4.8", ["--net", "enn", "--risk", "high", "--energy", "8", "16"]),
+    "enn_medium": ("4.4", ["--net", "enn", "--risk", "medium", "--energy", "8", "16"]),
+    "enn_low": ("4.5", ["--net", "enn", "--risk", "low", "--energy", "8", "16"]),
     "enn_energy16_32": ("4.7", ["--net", "enn", "--risk", "high", "--energy", "16", "32"]),
     "linear": ("4.9", ["--net", "linear", "--risk", "high", "--energy", "8", "16"]),
     "eqn": ("4.10", ["--net", "eqn", "--risk", "high", "--energy", "8", "16"]),
-}
-#: ENNs of Tables 4.4 and 4.5 (trained on their own risk map); not shipped by default, ``--only`` trains them.
-EXTRA = {
-    "enn_medium": ("4.4", ["--net", "enn", "--risk", "medium", "--energy", "8", "16"]),
-    "enn_low": ("4.5", ["--net", "enn", "--risk", "low", "--energy", "8", "16"]),
 }
 #: Beyond the thesis, shipped: the best single-item learner (issue goal: >= 97% of the exact optimum of
 #: Table 4.8's setting, ``jaxdc/dcp/optimal.py``). The thesis reuses the Table 4.3 ENN there; this one is
@@ -45,7 +42,7 @@ BEYOND = {
                         ["--net", "enn", "--risk", "high", "--total-reward", "1", "--energy", "8", "16",
                          "--steps", "4000000", "--eval-every", "1000000", "--eval-episodes", "2000", "--greedy-eval"]),
 }
-ALL = {**SHIPPED, **EXTRA, **BEYOND}
+ALL = {**SHIPPED, **BEYOND}
 
 
 def train_command(name: str, steps: int, seed: int, runs: str) -> list[str]:
