@@ -25,6 +25,8 @@ OMN + CoNN adds OMN's cross-entropy with weight 1, which trains OMN alone
 (Algorithm 12; see :mod:`jaxdc.nets.omn_conn`), so ``--alpha`` does not
 apply to it. ``--omn-lr`` (an option, not in the thesis) gives OMN's
 parameters their own initial learning rate (``A2CConfig.aux_lr``).
+``--reward-area S`` (an option, not in the thesis) trains on the one-item
+game of section 5.5.5 instead of the standard one (docs/dcg.md).
 """
 
 from __future__ import annotations
