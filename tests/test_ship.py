@@ -11,6 +11,17 @@ def test_train_command_uses_the_given_steps_unless_the_entry_fixes_them():
     single = ship.train_command("enn_single_item", 123, 0, "runs")
     assert single.count("--steps") == 1 and single[single.index("--steps") + 1] == "4000000"
     assert single[single.index("--total-reward") + 1] == "1"
+    long = ship.train_command("enn_long", 123, 0, "runs")
+    assert long.count("--steps") == 1 and long[long.index("--steps") + 1] == "16000000"
+
+
+def test_every_shipped_file_has_an_entry_that_regenerates_it():
+    import os
+
+    from jaxdc.pretrained import ASSETS
+
+    files = {f[:-len(".msgpack")] for f in os.listdir(os.path.join(ASSETS, "dcp")) if f.endswith(".msgpack")}
+    assert files == set(ship.ALL)
 
 
 def test_every_entry_names_a_dcp_network_and_its_tables():
