@@ -31,7 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdc.drp.tours import BUILDERS, build_order, gi_trajectory
-from jaxdc.drp.world import distance_lookup, tour_reward
+from jaxdc.drp.world import tour_reward
 
 CLUSTERINGS = ("nc", "pgc")
 
@@ -96,14 +96,13 @@ def _members(masks, K):
 
 
 def _tour_parts(D, psi, tour):
-    """``P_t(0)`` of a tour: its return probability, computed as in :func:`tour_gain` (``D``: array or lookup)."""
-    dist = distance_lookup(D)
+    """``P_t(0)`` of a tour: its return probability, computed as in :func:`tour_gain`."""
     valid = tour >= 0
     node = jnp.where(valid, tour, 0)
     prev = jnp.concatenate([jnp.zeros((1,), node.dtype), node[:-1]])
-    reach = jnp.cumsum(jnp.where(valid, dist(prev, node), 0.0))
+    reach = jnp.cumsum(jnp.where(valid, D[prev, node], 0.0))
     last = jnp.where(valid.any(), node[jnp.maximum(valid.sum() - 1, 0)], 0)
-    return jnp.where(valid.any(), psi ** (reach[-1] + dist(last, 0)), 0.0)
+    return jnp.where(valid.any(), psi ** (reach[-1] + D[last, 0]), 0.0)
 
 
 @partial(jax.jit, static_argnames=("criterion", "K"))
@@ -124,11 +123,8 @@ def _evaluate(criterion, K, D, P, beta, psi, gidx, alpha, subs, sizes, prefix=No
     def one(g, a, sub, size, pre, d):
         sub = jnp.concatenate([jnp.zeros((1,), sub.dtype), sub])
         ms = jnp.concatenate([jnp.zeros((1,), bool), jnp.arange(K) < size])
-        # Gathers straight from [G, n+1, n+1]: indexing P[g] or D[g] first copies the graph's whole
-        # matrix for every job (most of a small cluster's time). The rewards read only the tour's edges.
-        Ps = P[g, sub[:, None], sub[None, :]]
-        Ds = lambda x, y: D[g, sub[x], sub[y]]  # noqa: E731  (D of the compacted cluster, entries on demand)
-        bs = beta[g, sub].at[0].set(a)
+        Ps = P[g][sub[:, None], sub[None, :]]
+        bs = beta[g][sub].at[0].set(a)
         resume = None
         if pre is not None:
             n1 = D.shape[1]
@@ -137,11 +133,11 @@ def _evaluate(criterion, K, D, P, beta, psi, gidx, alpha, subs, sizes, prefix=No
             inpre = jnp.zeros((n1,), bool).at[pre].set(True)
             ms = ms & ~inpre[sub]
             resume = (rank[pre[: K + 1]], d)
-        local = build_order(criterion, Ps, bs, ms, resume)
-        reward = tour_reward(Ds, bs, psi[g], local)
-        collected = tour_reward(Ds, bs.at[0].set(0.0), psi[g], local)
-        tour = jnp.where(local >= 0, sub[jnp.maximum(local, 0)], -1)
-        return reward, tour, collected, _tour_parts(Ds, psi[g], local)
+        tour = build_order(criterion, Ps, bs, ms, resume)
+        tour = jnp.where(tour >= 0, sub[jnp.maximum(tour, 0)], -1)
+        reward = tour_reward(D[g], beta[g].at[0].set(a), psi[g], tour)
+        collected = tour_reward(D[g], beta[g].at[0].set(0.0), psi[g], tour)
+        return reward, tour, collected, _tour_parts(D[g], psi[g], tour)
 
     return jax.vmap(one)(gidx, alpha, subs, sizes, prefix, done)
 

@@ -60,32 +60,21 @@ def arrays(graph: Graph):
     return distances(graph.base, graph.nodes), node_values(graph.rewards, graph.alpha), jnp.float32(graph.psi)
 
 
-def distance_lookup(D):
-    """``D`` as a function ``(a, b) -> D[a, b]``; a callable ``D`` is returned as it is.
-
-    :func:`tour_gain` reads only the tour's edges, so a caller holding a batch of
-    graphs can pass a lookup that gathers just those entries (``jaxdc.drp.clustering``).
-    """
-    return D if callable(D) else (lambda a, b: D[a, b])
-
-
 def tour_gain(D, beta, psi, tour):
     """The gain of one tour, the inner sum of Eq. 3.1: ``sum_{v in t} P_t(v) beta(v)``.
 
     The sum runs over the visited nodes *and* the final return to 0, whose
     value is ``beta[0] = alpha``. An empty tour (all ``-1``) has gain 0.
-    ``D``: distances, or a lookup ``(a, b) -> D[a, b]`` (:func:`distance_lookup`).
     """
-    dist = distance_lookup(D)
     tour = jnp.asarray(tour)
     valid = tour >= 0
     node = jnp.where(valid, tour, 0)
     prev = jnp.concatenate([jnp.zeros((1,), node.dtype), node[:-1]])
-    step = jnp.where(valid, dist(prev, node), 0.0)
+    step = jnp.where(valid, D[prev, node], 0.0)
     reach = jnp.cumsum(step)  # D_t(0, v)
     collected = jnp.sum(jnp.where(valid, psi ** reach * beta[node], 0.0))
     last = jnp.where(valid.any(), node[jnp.maximum(valid.sum() - 1, 0)], 0)
-    home = reach[-1] + dist(last, 0)
+    home = reach[-1] + D[last, 0]
     returned = jnp.where(valid.any(), psi ** home * beta[0], 0.0)
     return collected + returned
 
