@@ -131,3 +131,23 @@ def test_gi_trajectory_breaks_ties_like_a_fresh_build():
         union[extra] = True
         want = [int(v) for v in tours.build_tour_jit("gi", D, beta, jnp.float32(0.99), jnp.asarray(union))[0] if v >= 0]
         assert _resumed(D, beta, union, cycles, first, extra)[1] == want
+
+
+@pytest.mark.parametrize("builder", ["osa", "gml"])
+def test_phased_builds_equal_single_phase_builds(builder):
+    # Above K = 32 OSA and GML run in quarters on compacted columns (tours._append_phases); the same clusters
+    # padded to K = 24 (one phase, all columns) must give the same tours.
+    g = world.generate(4, n=40, size=60, rewards="5", alpha=20.0)  # equal rewards: many exact ties
+    D, beta, psi = world.arrays(g)
+    P = psi ** D
+    rng = np.random.default_rng(1)
+    clusters = [np.sort(rng.choice(np.arange(1, 41), size, replace=False)) for size in (5, 13, 24, 24)]
+    build = jax.jit(jax.vmap(lambda P, beta, mask: tours.build_order(builder, P, beta, mask)))
+    small, big = [], []
+    for K, out in ((24, small), (40, big)):
+        subs = np.stack([np.concatenate([[0], c, np.zeros(K - len(c), int)]) for c in clusters])
+        masks = np.arange(K + 1)[None, :] <= np.array([len(c) for c in clusters])[:, None]
+        got = np.asarray(build(P[subs[:, :, None], subs[:, None, :]], beta[subs], jnp.asarray(masks)))
+        out.extend([[int(sub[v]) for v in t if v >= 0] for sub, t in zip(subs, got)])
+    assert small == big
+    assert len(tours._append_phases(builder, 40)) == 4 and len(tours._append_phases(builder, 24)) == 1

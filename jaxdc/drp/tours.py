@@ -36,23 +36,59 @@ from jaxdc.drp.world import tour_reward
 BUILDERS = APPEND_CRITERIA + ("gi",)
 
 
+#: Criteria whose pairwise term is a maximum or minimum over the other candidates (Eqs. 3.3, 3.6): exact
+#: whatever the order of the entries, so their loop may drop assigned columns (:func:`_append_phases`).
+_PAIRWISE_EXTREMA = ("osa", "gml")
+
+
+def _append_phases(criterion, n):
+    """Static phases of :func:`_append_tour` for ``K = n``: ``(end, cols)`` per phase.
+
+    OSA and GML score a ``[K, K]`` block per step (Eqs. 3.3, 3.6), but only the
+    unassigned nodes take part, and at most ``n - start`` are left when a phase
+    starts; above ``K = 32`` the loop runs in quarters, each on that many
+    columns (about half the block entries of a single phase). The other
+    criteria, and small ``K``, keep one phase over all ``K + 1`` columns: TL's
+    and LPG's sums would change their float32 rounding if zeros were dropped.
+    """
+    if criterion not in _PAIRWISE_EXTREMA or n <= 32:
+        return ((n, n + 1),)
+    ends = [n * j // 4 for j in range(1, 4)] + [n]
+    return tuple((e, n - s) for s, e in zip([0] + ends[:-1], ends))
+
+
 def _append_tour(criterion, P, beta, mask):
-    """Algorithm 2 with an append criterion: always insert at position ``|t|``. ``P = psi**D``."""
+    """Algorithm 2 with an append criterion: always insert at position ``|t|``. ``P = psi**D``.
+
+    Each phase of :func:`_append_phases` gathers ``P`` and ``beta`` of its
+    columns -- the unassigned nodes in index order, so the candidates' scores
+    are the same numbers and the lowest node still wins a tie.
+    """
     n = P.shape[0] - 1
     mask = jnp.asarray(mask, bool).at[0].set(False)
+    tour = jnp.full((n,), -1, jnp.int32)
+    end, p_end, s = jnp.int32(0), jnp.float32(1.0), jnp.int32(0)
+    for limit, width in _append_phases(criterion, n):
+        if width == n + 1:  # all columns: the arrays as they are
+            cols, Pc, bc = jnp.arange(n + 1), P, beta
+        else:
+            cols = jnp.argsort(~mask, stable=True)[:width]
+            Pc, bc = P[cols[:, None], cols[None, :]], beta[cols]
 
-    def cond(st):
-        mask, _, _, _, s = st
-        return (s < n) & mask.any()
+        def cond(st, limit=limit):
+            cmask, _, _, _, s = st
+            return (s < limit) & cmask.any()
 
-    def body(st):
-        mask, end, p_end, tour, s = st
-        scores = append_scores(criterion, P[end], P, beta, mask, p_end)
-        u = jnp.argmax(scores)
-        return mask.at[u].set(False), u, p_end * P[end, u], tour.at[s].set(u), s + 1
+        def body(st, cols=cols, Pc=Pc, bc=bc):
+            cmask, end, p_end, tour, s = st
+            scores = append_scores(criterion, P[end] if Pc is P else P[end][cols], Pc, bc, cmask, p_end)
+            c = jnp.argmax(scores)
+            u = cols[c]
+            return cmask.at[c].set(False), u, p_end * P[end, u], tour.at[s].set(u), s + 1
 
-    init = (mask, jnp.int32(0), jnp.float32(1.0), jnp.full((n,), -1, jnp.int32), jnp.int32(0))
-    _, _, _, tour, _ = jax.lax.while_loop(cond, body, init)
+        cmask, end, p_end, tour, s = jax.lax.while_loop(cond, body, (mask if Pc is P else mask[cols], end, p_end,
+                                                                     tour, s))
+        mask = cmask if Pc is P else jnp.zeros_like(mask).at[cols].set(cmask)
     return tour
 
 
@@ -91,26 +127,6 @@ def _gi_insert(cycle, rows, P, u, i, k):
     return cycle.astype(jnp.int32), rows
 
 
-def _gi_phases(n):
-    """Static phases of :func:`_gi_tour` for ``K = n``: ``(end, rows, cols)`` per phase.
-
-    A phase runs while the partial tour has ``m < end`` nodes. Slots fill in insertion
-    order, so the used slots are among the first ``rows``; at most ``n - start``
-    nodes are still unassigned when it starts, so ``cols`` columns hold them all.
-    Two phases (halves) up to ``K = 32``, four (quarters) above, where the
-    ``[rows, cols]`` block is the work: about ``0.31 K^3`` entries per build
-    instead of ``0.75 K^3`` with halves over all columns.
-    """
-    q = 4 if n > 32 else 2
-    ends = sorted({(n + 2) * j // q for j in range(1, q)} | {n})
-    out, start = [], 0
-    for e in ends:
-        if e > start and start < n:
-            out.append((min(e, n), n + 1 if e >= n else e, max(n - start, 1)))
-        start = e
-    return tuple(out)
-
-
 def _gi_tour(P, beta, mask, cycle0=None, m0=0):
     """Greedy Insertion (GI, Eq. 3.8): the best node at the best position, cyclic tour. ``P = psi**D``.
 
@@ -130,11 +146,9 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
     ``1 - P(a, u') P(u', b) / P(a, b)`` of Eq. 3.8 is computed once per edge and
     kept, instead of for every edge at every step; only the ``[K+1]`` vectors
     ``P_t(a)`` and "value after ``a``" are recomputed, in tour order, as in
-    :func:`gi_scores`. The loop runs in phases (:func:`_gi_phases`): slots fill
-    from the top, so a phase scores only the rows that can be used in it, and at
-    its start the columns are compacted to the nodes still unassigned (in index
-    order, so the same entries are computed and the lowest node still wins a
-    tie). Ties: lowest node, then earliest tour position.
+    :func:`gi_scores`. Slots fill from the top, so while fewer than half are
+    used only that half of the block is scored. Ties: lowest node, then
+    earliest tour position.
     """
     n = P.shape[0] - 1
     mask = jnp.asarray(mask, bool).at[0].set(False)
@@ -149,15 +163,15 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
 
     def cond(limit):
         def go(st):
-            cmask, m = st[1], st[-1]
-            return (m < limit) & cmask.any()
+            mask, m = st[0], st[-1]
+            return (m < limit) & mask.any()
         return go
 
     def body(h):
         """One insertion, scoring only the first ``h`` slots (valid while ``m < h``)."""
 
         def step(st):
-            cols, cmask, order, node, rows, fac, m = st
+            mask, order, node, rows, fac, m = st
             # Tour-order vectors, exactly as in gi_scores: order[j] is the slot at tour position j.
             inside = k <= m
             cyc = node[order]
@@ -169,29 +183,21 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
             after = collected.sum() - jnp.cumsum(collected) + home
             pos = jnp.zeros((n + 1,), jnp.int32).at[order].set(k.astype(jnp.int32))  # tour position of each slot
             ph = pos[:h]
-            score = reach[ph][:, None] * rows[:h] * beta[cols][None, :] - fac[:h] * after[ph][:, None]
-            score = jnp.where((k[:h] <= m)[:, None] & cmask[None, :], score, -jnp.inf)
+            score = reach[ph][:, None] * rows[:h] * beta[None, :] - fac[:h] * after[ph][:, None]
+            score = jnp.where((k[:h] <= m)[:, None] & mask[None, :], score, -jnp.inf)
             best = score.max(axis=0)
-            c = jnp.argmax(best)  # lowest node: cols is in index order
-            u = cols[c]
-            slot = jnp.argmin(jnp.where(score[:, c] == best[c], ph, n + 1))  # then earliest position
+            u = jnp.argmax(best)  # lowest node
+            slot = jnp.argmin(jnp.where(score[:, u] == best[u], ph, n + 1))  # then earliest position
             i = pos[slot]
             new = m + 1
             a, b = node[slot], nxt[i]
-            p_u = P[u][cols]
-            fac = fac.at[slot].set(factor(rows[slot], p_u, P[a, u])).at[new].set(factor(p_u, P[b][cols], P[u, b]))
-            rows = rows.at[new].set(p_u)
+            fac = fac.at[slot].set(factor(rows[slot], P[u], P[a, u])).at[new].set(factor(P[u], P[b], P[u, b]))
+            rows = rows.at[new].set(P[u])
             node = node.at[new].set(u)
             order = jnp.where(k <= i, order, jnp.where(k == i + 1, new, jnp.where(k <= new, jnp.roll(order, 1), k)))
-            return cols, cmask.at[c].set(False), order.astype(jnp.int32), node, rows, fac, new
+            return mask.at[u].set(False), order.astype(jnp.int32), node, rows, fac, new
 
         return step
-
-    def compact(st, width):
-        """Keep ``width`` columns: the unassigned nodes first, in index order (a stable sort)."""
-        cols, cmask, order, node, rows, fac, m = st
-        keep = jnp.argsort(~cmask, stable=True)[:width]
-        return cols[keep], cmask[keep], order, node, rows[:, keep], fac[:, keep], m
 
     # Initial slots: the partial tour cycle0 in tour order.
     rows0 = P[cycle0]
@@ -199,10 +205,11 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
     p_ub0 = jnp.where((k < m0)[:, None], jnp.roll(rows0, -1, axis=0), P[0][None, :])
     edge0 = jnp.where(k <= m0, P[cycle0, nxt0], 1.0)
     fac0 = factor(rows0, p_ub0, edge0[:, None])
-    st = (k.astype(jnp.int32), mask, k.astype(jnp.int32), cycle0, rows0, fac0, m0)
-    for end, h, width in _gi_phases(n):
-        st = jax.lax.while_loop(cond(end), body(h), compact(st, width))
-    order, node, m = st[2], st[3], st[-1]
+    st = (mask, k.astype(jnp.int32), cycle0, rows0, fac0, m0)
+    # Two phases: while the partial tour has fewer than half the slots, score only those rows.
+    half = (n + 2) // 2
+    st = jax.lax.while_loop(cond(half), body(half), st)
+    _, order, node, _, _, m = jax.lax.while_loop(cond(n), body(n + 1), st)
     cycle = node[order]
     return jnp.where(k[1:] <= m, cycle[1:], -1)
 
