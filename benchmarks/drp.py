@@ -27,6 +27,16 @@
 
     python -m benchmarks.drp --against bb1d1f1 --cc-graphs 2 --cc-builders gi,ng [--json]
 
+5. ``--fig-against REV`` (instead of 1-4): the figure-3.1 experiment (all 12
+   combinations, ``eval.drp.run_experiment``) on ``--cc-graphs`` graphs of
+   ``--cc-nodes`` nodes x ``--cc-alphas``, with the ``jaxdc`` of ``REV`` and the
+   working tree's, each in a fresh process run twice (first run with every
+   compilation, then warm), one after the other; reports the total and
+   per-part times and checks that all rewards are *exactly* equal (else, per
+   combination, how many instances differ and by how much at most).
+
+    python -m benchmarks.drp --fig-against 9dd8b83 --cc-graphs 4 --cc-nodes 100 [--json]
+
 The reference uses the same formulas (Eqs. 3.2-3.8), NumPy-vectorised over
 candidates within a step, Python loops over steps, NC re-evaluating only pairs
 with the new cluster, and the same PGC (``jaxdc.drp.clustering.pgc`` is
@@ -205,36 +215,83 @@ def _nc_child(builder, graphs, nodes, alphas, out):
     np.savez(out, member=member, first=times[0], warm=times[1])
 
 
-def nc_against(rev, graphs, nodes, alphas, builders):
-    """NC with the ``jaxdc`` of git revision ``rev`` and with the working tree's, side by side (fresh processes)."""
+def _against(rev, child, tags):
+    """Run ``child(root, tag, out)`` -- a Python statement -- once with the ``jaxdc`` of git revision ``rev``
+    (``git archive`` into a temporary folder) and once with the working tree's, each in a fresh process;
+    yields ``(tag, npz contents)``."""
     import os
     import subprocess
     import tempfile
 
-    rows = []
     with tempfile.TemporaryDirectory() as tmp:
         old = os.path.join(tmp, "old")
         os.makedirs(old)
         archive = subprocess.run(["git", "archive", rev, "jaxdc"], check=True, capture_output=True).stdout
         subprocess.run(["tar", "-x", "-C", old], input=archive, check=True)
         here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-        for b in builders:
-            row = {"builder": b, "graphs": graphs, "nodes": nodes, "alphas": len(alphas), "against": rev}
-            members = {}
-            for tag, root in (("old", old), ("new", here)):
-                out = os.path.join(tmp, f"{b}_{tag}.npz")
-                code = (f"import sys; sys.path.insert(0, {root!r}); from benchmarks.drp import _nc_child; "
-                        f"_nc_child({b!r}, {graphs}, {nodes}, {list(alphas)!r}, {out!r})")
+        for tag in tags:
+            for side, root in (("old", old), ("new", here)):
+                out = os.path.join(tmp, f"{tag}_{side}.npz")
+                code = f"import sys; sys.path.insert(0, {root!r}); " + child(tag, out)
                 subprocess.run([sys.executable, "-c", code], check=True, cwd=here)
                 with np.load(out) as z:
-                    members[tag] = z["member"]
-                    row[f"{tag}_first_s"], row[f"{tag}_warm_s"] = float(z["first"]), float(z["warm"])
-                print(json.dumps({"builder": b, tag: [row[f"{tag}_first_s"], row[f"{tag}_warm_s"]]}), file=sys.stderr)
+                    yield tag, side, {k: z[k] for k in z.files}
+
+
+def nc_against(rev, graphs, nodes, alphas, builders):
+    """NC with the ``jaxdc`` of git revision ``rev`` and with the working tree's, side by side (fresh processes)."""
+    rows = {b: {"builder": b, "graphs": graphs, "nodes": nodes, "alphas": len(alphas), "against": rev}
+            for b in builders}
+    members = {}
+    child = lambda b, out: (f"from benchmarks.drp import _nc_child; "  # noqa: E731
+                            f"_nc_child({b!r}, {graphs}, {nodes}, {list(alphas)!r}, {out!r})")
+    for b, side, z in _against(rev, child, builders):
+        row = rows[b]
+        members[b, side] = z["member"]
+        row[f"{side}_first_s"], row[f"{side}_warm_s"] = float(z["first"]), float(z["warm"])
+        print(json.dumps({"builder": b, side: [row[f"{side}_first_s"], row[f"{side}_warm_s"]]}), file=sys.stderr)
+        if side == "new":
             row["speedup_first"] = row["old_first_s"] / row["new_first_s"]
             row["speedup_warm"] = row["old_warm_s"] / row["new_warm_s"]
-            row["identical_clusters"] = bool((members["old"] == members["new"]).all())
-            rows.append(row)
-    return rows
+            row["identical_clusters"] = bool((members[b, "old"] == members[b, "new"]).all())
+    return list(rows.values())
+
+
+def _fig_child(graphs, nodes, alphas, out):
+    """Child of :func:`figure_against`: the figure-3.1 experiment twice (first run, warm) with whichever
+    ``jaxdc`` is first on ``sys.path``; rewards and times to ``out``."""
+    from eval.drp import run_experiment
+    from jaxdc.drp.tours import BUILDERS
+
+    res = {}
+    for run in ("first", "warm"):
+        t0 = time.perf_counter()
+        raw, timing = run_experiment("4-6", graphs, nodes, alphas, "centre", 0, BUILDERS, ("nc", "pgc"), quiet=True)
+        res[f"{run}_s"] = time.perf_counter() - t0
+        res.update({f"{run}_t_{k}": v for k, v in timing.items()})
+    res.update({f"raw_{c}_{b}": r for (c, b), r in raw.items()})
+    np.savez(out, **res)
+
+
+def figure_against(rev, graphs, nodes, alphas):
+    """The figure-3.1 experiment with the ``jaxdc`` of ``rev`` and the working tree's (fresh processes)."""
+    child = lambda _, out: (f"from benchmarks.drp import _fig_child; "  # noqa: E731
+                            f"_fig_child({graphs}, {nodes}, {list(alphas)!r}, {out!r})")
+    got = {side: z for _, side, z in _against(rev, child, ["figure"])}
+    old, new = got["old"], got["new"]
+    row = {"graphs": graphs, "nodes": nodes, "alphas": len(alphas), "against": rev}
+    for run in ("first", "warm"):
+        row[f"old_{run}_s"], row[f"new_{run}_s"] = float(old[f"{run}_s"]), float(new[f"{run}_s"])
+        row[f"speedup_{run}"] = row[f"old_{run}_s"] / row[f"new_{run}_s"]
+        row[f"{run}_parts_s"] = {k[len(run) + 3:]: [round(float(old[k]), 2), round(float(new[k]), 2)]
+                                 for k in old if k.startswith(f"{run}_t_")}
+    raws = sorted(k for k in old if k.startswith("raw_"))
+    row["identical_rewards"] = bool(raws == sorted(k for k in new if k.startswith("raw_")) and
+                                    all(np.array_equal(old[k], new[k]) for k in raws))
+    # per combination: instances whose reward differs, and the largest difference
+    row["reward_differences"] = {k[4:]: [int((old[k] != new[k]).sum()), float(np.abs(old[k] - new[k]).max())]
+                                 for k in raws if k in new and not np.array_equal(old[k], new[k])}
+    return row
 
 
 def gi_resume_stats(nodes=100, alpha=20.0, seed=0):
@@ -286,7 +343,15 @@ def main(argv=None):
                    help="only: how much NC+GI with resume=True skips on one --nodes graph at --alpha")
     p.add_argument("--against", metavar="REV",
                    help="only: NC with the jaxdc of git revision REV vs the working tree's (--cc-* settings)")
+    p.add_argument("--fig-against", metavar="REV",
+                   help="only: the figure-3.1 experiment with the jaxdc of REV vs the working tree's (--cc-graphs, "
+                        "--cc-nodes, --cc-alphas)")
     args = p.parse_args(argv)
+    if args.fig_against:
+        row = figure_against(args.fig_against, args.cc_graphs, args.cc_nodes,
+                             [float(a) for a in args.cc_alphas.split(",")])
+        print(json.dumps(row) if args.json else json.dumps(row, indent=1))
+        return
     if args.against:
         rows = nc_against(args.against, args.cc_graphs, args.cc_nodes, [float(a) for a in args.cc_alphas.split(",")],
                           args.cc_builders.split(","))
