@@ -55,8 +55,8 @@ def _add_network(p, required=True):
 
 
 def _add_game(p):
-    p.add_argument("--energy", type=positive(float, "--energy", allow_inf=True), default=None, help="maximum energy (default: as trained; "
-                   "10/15/20 in Figs. 5.8-5.9)")
+    p.add_argument("--energy", type=positive(float, "--energy", allow_inf=True), default=None,
+                   help="maximum energy (default: as trained; 10/15/20 in Figs. 5.8-5.9)")
     sets = p.add_mutually_exclusive_group()
     sets.add_argument("--strategies", type=_strategies, default=None,
                       help="comma-separated opponent strategies (default: as trained)")
