@@ -31,7 +31,7 @@ import shlex
 import sys
 import time
 
-from jaxdc.cli import positive, positive_int
+from jaxdc.cli import positive_float, positive_int
 from jaxdc.dcg.opponents import DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
 from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
 
@@ -55,7 +55,7 @@ def _add_network(p, required=True):
 
 
 def _add_game(p):
-    p.add_argument("--energy", type=positive(float, "--energy", allow_inf=True), default=None,
+    p.add_argument("--energy", type=positive_float("--energy", allow_inf=True), default=None,
                    help="maximum energy (default: as trained; 10/15/20 in Figs. 5.8-5.9)")
     sets = p.add_mutually_exclusive_group()
     sets.add_argument("--strategies", type=_strategies, default=None,
@@ -112,7 +112,7 @@ def render_parser() -> argparse.ArgumentParser:
     _add_network(p)
     p.add_argument("--strategy", type=_strategies, required=True, help="the opponent strategy, e.g. patrol")
     p.add_argument("--seed", type=int, default=0, help="the game (same seed: same initial state for every network)")
-    p.add_argument("--energy", type=positive(float, "--energy", allow_inf=True), default=None)
+    p.add_argument("--energy", type=positive_float("--energy", allow_inf=True), default=None)
     p.add_argument("--reward-area", type=positive_int("--reward-area"), default=None, metavar="S",
                    help="one unit item in the bottom-right S x S square (as in Figs. 5.13-5.15)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=30,

@@ -37,7 +37,7 @@ import time
 
 import numpy as np
 
-from jaxdc.cli import positive, positive_int
+from jaxdc.cli import positive_float, positive_int
 from jaxdc.core import grid
 from jaxdc.core.paths import PATH_RISK
 from jaxdc.dcp import env as dcp_env
@@ -86,7 +86,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="N (default 8, the map's, or the learned network's)")
     p.add_argument("--total-reward", type=positive_int("--total-reward"), default=None,
                    help="default 30, or the learned network's")
-    p.add_argument("--energy", nargs=2, type=positive(float, "--energy", allow_inf=True), metavar=("INIT", "MAX"), default=None,
+    p.add_argument("--energy", nargs=2, type=positive_float("--energy", allow_inf=True), metavar=("INIT", "MAX"),
+                   default=None,
                    help="initial and maximum energy; 'inf inf' for no constraint (default 8 16, or the learned "
                         "network's)")
     p.add_argument("--episodes", type=positive_int("--episodes"), default=10_000)

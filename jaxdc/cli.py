@@ -11,16 +11,16 @@ import argparse
 import math
 
 
-def positive(kind, name: str, allow_inf: bool = False):
-    """argparse type: a ``kind`` (int or float) > 0; finite unless ``allow_inf`` (``"inf"`` accepted)."""
+def positive_float(name: str, allow_inf: bool = False):
+    """argparse type: a float > 0; finite unless ``allow_inf`` (then ``"inf"`` is accepted)."""
     extra = " (or 'inf')" if allow_inf else ""
 
     def parse(text):
         try:
-            v = kind(text)
+            v = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{name} must be a number > 0{extra}, got {text!r}") from None
-        if not v > 0 or (kind is float and math.isinf(v) and not allow_inf):
+        if not v > 0 or (math.isinf(v) and not allow_inf):
             raise argparse.ArgumentTypeError(f"{name} must be > 0{extra}, got {text!r}")
         return v
 

@@ -130,7 +130,7 @@ def test_reward_area_training_is_recorded_and_replayed(tmp_path):
     (["--net", "emnn", "--omn-lr", "0.001"], "--omn-lr sets OMN's learning rate and applies to --net omn_conn only"),
     (["--net", "omn_conn", "--omn-lr", "0"], "--omn-lr must be > 0"),
     (["--steps", "16"], "total_steps (16) must be >= num_envs * t_max (128)"),
-    (["--reward-area", "0"], "--reward-area must be > 0"),
+    (["--reward-area", "0"], "--reward-area must be an integer >= 1"),
     (["--reward-area", "4"], "reward_area must be between 1 and grid_size (3), got 4"),
 ])
 def test_bad_arguments(capsys, tmp_path, extra, match):

@@ -87,8 +87,8 @@ def test_nan_loss_stops_and_keeps_the_last_good_checkpoint(finished_run, tmp_pat
 
 @pytest.mark.parametrize("extra, match", [
     (["--net", "dqn"], "invalid choice"),
-    (["--steps", "0"], "--steps must be > 0"),
-    (["--steps", "-5"], "--steps must be > 0"),
+    (["--steps", "0"], "--steps must be an integer >= 1"),
+    (["--steps", "-5"], "--steps must be an integer >= 1"),
     (["--lr", "0"], "--lr must be > 0"),
     (["--lr", "nan"], "--lr must be > 0"),
     (["--steps", "16"], "total_steps (16) must be >= num_envs * t_max (32)"),

@@ -26,7 +26,7 @@ import numpy as np
 
 from jaxdc import checkpoint
 from jaxdc.agents.a2c import A2CConfig, lr_schedule
-from jaxdc.cli import nonnegative_float, positive
+from jaxdc.cli import nonnegative_float, positive_float, positive_int
 from jaxdc.io import atomic_write, atomic_write_json
 
 #: Exit status of a run stopped by a NaN loss.
@@ -37,25 +37,25 @@ LAYOUTS = ("loop", "scan")
 
 def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eval_episodes: int = 500) -> None:
     """The A2C hyperparameters (defaults of sections 4.5 and 5.5.2) and the run-control flags."""
-    p.add_argument("--steps", type=positive(int, "--steps"), default=1_000_000,
+    p.add_argument("--steps", type=positive_int("--steps"), default=1_000_000,
                    help="T_max: environment steps in total (the learning rate reaches 0 there)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--envs", type=positive(int, "--envs"), default=16, help="parallel environments (16 threads)")
-    p.add_argument("--t-max", type=positive(int, "--t-max"), default=32, help="rollout length per update")
-    p.add_argument("--lr", type=positive(float, "--lr"), default=1e-4, help="initial learning rate")
+    p.add_argument("--envs", type=positive_int("--envs"), default=16, help="parallel environments (16 threads)")
+    p.add_argument("--t-max", type=positive_int("--t-max"), default=32, help="rollout length per update")
+    p.add_argument("--lr", type=positive_float("--lr"), default=1e-4, help="initial learning rate")
     p.add_argument("--gamma", type=nonnegative_float("--gamma"), default=0.99)
     p.add_argument("--entropy", type=nonnegative_float("--entropy"), default=A2CConfig.entropy_coef,
                    help="entropy bonus weight (default 0.01 as in A3C; 0 for the thesis' two loss terms)")
     p.add_argument("--value-coef", type=nonnegative_float("--value-coef"), default=A2CConfig.value_coef)
-    p.add_argument("--max-grad-norm", type=positive(float, "--max-grad-norm"), default=None)
+    p.add_argument("--max-grad-norm", type=positive_float("--max-grad-norm"), default=None)
     p.add_argument("--layout", choices=LAYOUTS, default="loop",
                    help="loop: one jitted update per Python iteration (faster on CPU); scan: updates in lax.scan")
     p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
-    p.add_argument("--eval-every", type=positive(int, "--eval-every"), default=eval_every,
+    p.add_argument("--eval-every", type=positive_int("--eval-every"), default=eval_every,
                    help="environment steps between evaluations and checkpoints")
-    p.add_argument("--eval-episodes", type=positive(int, "--eval-episodes"), default=eval_episodes)
+    p.add_argument("--eval-episodes", type=positive_int("--eval-episodes"), default=eval_episodes)
     p.add_argument("--greedy-eval", action="store_true", help="evaluate the argmax policy instead of sampling")
-    p.add_argument("--keep", type=positive(int, "--keep"), default=3, help="checkpoints to keep")
+    p.add_argument("--keep", type=positive_int("--keep"), default=3, help="checkpoints to keep")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 

@@ -43,7 +43,7 @@ import jax.numpy as jnp
 from jaxdc import pretrained
 from jaxdc.agents import a2c
 from jaxdc.agents.a2c import A2CConfig
-from jaxdc.cli import integer, nonnegative_float, positive
+from jaxdc.cli import integer, nonnegative_float, positive_float, positive_int
 from jaxdc.core.env import step_batch
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcg.env import DCG
@@ -68,22 +68,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--net", choices=NETS, default="omn_conn", help="network to train (section 5.4)")
     p.add_argument("--alpha", type=nonnegative_float("--alpha"), default=0.001,
                    help="EMNN: weight of the opponent-action cross-entropy (Eq. 5.1; 0.001 or 0.0001)")
-    p.add_argument("--omn-lr", type=positive(float, "--omn-lr"), default=None,
+    p.add_argument("--omn-lr", type=positive_float("--omn-lr"), default=None,
                    help="OMN + CoNN: initial learning rate of OMN's parameters, annealed to 0 like --lr by OMN's own "
                         "Adam (default: --lr, Algorithm 12's one update). Not in the thesis")
-    p.add_argument("--energy", type=positive(float, "--energy"), default=15.0,
+    p.add_argument("--energy", type=positive_float("--energy"), default=15.0,
                    help="maximum (and initial) energy (15; 10 and 20 in Figs. 5.8-5.9)")
     p.add_argument("--grid-size", type=integer("--grid-size"), default=5, help="N (>= 2)")
-    p.add_argument("--total-reward", type=positive(int, "--total-reward"), default=None,
+    p.add_argument("--total-reward", type=positive_int("--total-reward"), default=None,
                    help="sum of the item rewards (default 10, section 5.5.1; 1 with --reward-area)")
-    p.add_argument("--reward-area", type=positive(int, "--reward-area"), default=None, metavar="S",
+    p.add_argument("--reward-area", type=positive_int("--reward-area"), default=None, metavar="S",
                    help="train on the game of section 5.5.5 (Figs. 5.10-5.12): one unit item uniform in the "
                         "bottom-right S x S square. Not in the thesis, which trains on the standard game only")
     p.add_argument("--strategies", default=",".join(STANDARD_STRATEGIES),
                    help="comma-separated opponent strategies, one drawn per episode")
     p.add_argument("--history", type=integer("--history"), default=10,
                    help="k, the previous agent planes read by IMNN/EMNN/OMN+CoNN (>= 1; VNN ignores it)")
-    p.add_argument("--max-steps", type=positive(int, "--max-steps"), default=100, help="episode step cap")
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=100, help="episode step cap")
     p.add_argument("--out", default=None, help="run folder (default runs/dcg-NET-eENERGY-sSEED)")
     p.add_argument("--ship", nargs="?", const="", default=None, metavar="PATH",
                    help="after training, write the final parameters with jaxdc.pretrained.save "

@@ -33,13 +33,13 @@ import jax
 
 from jaxdc.agents import a2c, nstep_q, parallel
 from jaxdc.agents.a2c import A2CConfig
+from jaxdc.cli import nonnegative_float, positive_float, positive_int
 from jaxdc.core import grid
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import navigators
 from jaxdc.dcp.evaluate import summarize
-from jaxdc.cli import nonnegative_float, positive
 from jaxdc.io import enable_compilation_cache
 from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
 from train.common import EXIT_NAN, TrainingRun, add_a2c_arguments, tensorboard_writer
@@ -80,28 +80,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--net", choices=NETS, default="enn",
                    help="network to train (enn, linear, cnn: A2C; eqn: n-step Q-learning)")
     p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default="high", help="risk preset (Table 4.2)")
-    p.add_argument("--grid-size", type=positive(int, "--grid-size"), default=8)
-    p.add_argument("--total-reward", type=positive(int, "--total-reward"), default=30)
-    p.add_argument("--energy", nargs=2, type=positive(float, "--energy"), metavar=("INIT", "MAX"),
+    p.add_argument("--grid-size", type=positive_int("--grid-size"), default=8)
+    p.add_argument("--total-reward", type=positive_int("--total-reward"), default=30)
+    p.add_argument("--energy", nargs=2, type=positive_float("--energy"), metavar=("INIT", "MAX"),
                    default=(8.0, 16.0), help="initial and maximal energy (Tables 4.3-4.8: 8 16)")
-    p.add_argument("--max-steps", type=positive(int, "--max-steps"), default=1000, help="episode step cap")
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=1000, help="episode step cap")
     add_a2c_arguments(p)  # --steps --seed --envs --t-max --lr ... --keep --no-progress (train/common.py)
     p.add_argument("--seeds", type=_seed_list, default=None,
                    help="several independent runs at once (vmapped), e.g. 0,1,2; replaces --seed")
-    p.add_argument("--devices", type=positive(int, "--devices"), default=None,
+    p.add_argument("--devices", type=positive_int("--devices"), default=None,
                    help="devices to split the environment batch over (default: all; --envs must be a multiple)")
-    p.add_argument("--reset-slots", type=positive(int, "--reset-slots"), default=None,
+    p.add_argument("--reset-slots", type=positive_int("--reset-slots"), default=None,
                    help="fresh initial states drawn per step (default: one per environment)")
     g = p.add_argument_group("learner options beside Algorithm 10 (not in the thesis; see docs/learning.md)")
     g.add_argument("--gae-lambda", type=_unit_interval("--gae-lambda"), default=1.0,
                    help="lambda-returns / GAE (1: the n-step returns of Algorithm 10)")
     g.add_argument("--clip-eps", type=_unit_interval("--clip-eps", low_open=True), default=None,
                    help="PPO clipping of the probability ratio (default: none, plain policy gradient)")
-    g.add_argument("--epochs", type=positive(int, "--epochs"), default=1, help="passes over each rollout")
-    g.add_argument("--minibatches", type=positive(int, "--minibatches"), default=1,
+    g.add_argument("--epochs", type=positive_int("--epochs"), default=1, help="passes over each rollout")
+    g.add_argument("--minibatches", type=positive_int("--minibatches"), default=1,
                    help="shuffled minibatches per pass (must divide envs * t-max)")
     g.add_argument("--normalize-advantages", action="store_true", help="standardize advantages per minibatch")
-    p.add_argument("--target-every", type=positive(int, "--target-every"), default=40_000,
+    p.add_argument("--target-every", type=positive_int("--target-every"), default=40_000,
                    help="eqn: environment steps between target-network copies")
     p.add_argument("--eval-epsilon", type=nonnegative_float("--eval-epsilon"), default=nstep_q.EVAL_EPSILON,
                    help="eqn: epsilon of the evaluation policy (section 4.5.5: 0.05)")
