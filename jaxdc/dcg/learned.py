@@ -101,7 +101,7 @@ class Learned:
         # train.dcg plays VNN without history planes (metadata history 0); VNN reads obs[..., :2] either way
         k = int(s["history"])
         obs_history = bool(self.metadata.get("obs_history", k > 0))
-        env = DCG(grid_size=s["grid_size"], total_reward=1 if "reward_area" in options else s["total_reward"],
+        env = DCG(grid_size=s["grid_size"], total_reward=1 if reward_area is not None else s["total_reward"],
                   strategies=tuple(strategies if strategies is not None else s["strategies"]),
                   history=max(k, 1), obs_history=obs_history, **options)
         params = env.make_params(energy=s["energy"] if energy is None else energy,
