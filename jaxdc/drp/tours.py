@@ -69,26 +69,24 @@ def _append_tour(criterion, P, beta, mask):
     tour = jnp.full((n,), -1, jnp.int32)
     end, p_end, s = jnp.int32(0), jnp.float32(1.0), jnp.int32(0)
     for limit, width in _append_phases(criterion, n):
-        if width == n + 1:  # all columns: the arrays as they are
-            cols, Pc, bc = jnp.arange(n + 1), P, beta
-        else:
-            cols = jnp.argsort(~mask, stable=True)[:width]
-            Pc, bc = P[cols[:, None], cols[None, :]], beta[cols]
+        full = width == n + 1  # all columns: the arrays as they are
+        cols = jnp.arange(n + 1) if full else jnp.argsort(~mask, stable=True)[:width]
+        Pc, bc = (P, beta) if full else (P[cols[:, None], cols[None, :]], beta[cols])
 
         def cond(st, limit=limit):
             cmask, _, _, _, s = st
             return (s < limit) & cmask.any()
 
-        def body(st, cols=cols, Pc=Pc, bc=bc):
+        def body(st, cols=cols, Pc=Pc, bc=bc, full=full):
             cmask, end, p_end, tour, s = st
-            scores = append_scores(criterion, P[end] if Pc is P else P[end][cols], Pc, bc, cmask, p_end)
+            scores = append_scores(criterion, P[end] if full else P[end][cols], Pc, bc, cmask, p_end)
             c = jnp.argmax(scores)
             u = cols[c]
             return cmask.at[c].set(False), u, p_end * P[end, u], tour.at[s].set(u), s + 1
 
-        cmask, end, p_end, tour, s = jax.lax.while_loop(cond, body, (mask if Pc is P else mask[cols], end, p_end,
-                                                                     tour, s))
-        mask = cmask if Pc is P else jnp.zeros_like(mask).at[cols].set(cmask)
+        init = (mask if full else mask[cols], end, p_end, tour, s)
+        cmask, end, p_end, tour, s = jax.lax.while_loop(cond, body, init)
+        mask = cmask if full else jnp.zeros_like(mask).at[cols].set(cmask)
     return tour
 
 
