@@ -145,3 +145,28 @@ def test_nc_gi_resume_gives_the_same_clusters_as_rebuilding():
     slow = cl.nc("gi", D, beta, psi, gidx, alpha, resume=False)
     assert (fast == slow).all()
     assert any(len(cl.clusters_from_member(m)) < N for m in fast)  # merges happened
+
+
+def test_cluster_rewards_do_not_depend_on_the_batch():
+    # R(C) comes from the tour, in float64 on the host: the same cluster alone, in a batch of its bucket, or
+    # in a batch spread over many buckets gets exactly the same reward (XLA's float32 results can differ
+    # with the compiled program and the batch width).
+    D, beta, psi = batch([6, 7], rewards="1-9")
+    rng = np.random.default_rng(2)
+    masks = rng.random((300, N + 1)) < 0.6
+    masks[:, 0] = False
+    masks[~masks.any(1), 3] = True
+    gidx = rng.integers(0, 2, 300)
+    alpha = rng.choice(np.asarray(ALPHAS, np.float32), 300)
+    for builder in ("tl", "gi"):
+        together = cl.evaluate_clusters(builder, D, beta, psi, gidx, alpha, masks)
+        for j in (0, 17, 299):
+            alone = cl.evaluate_clusters(builder, D, beta, psi, gidx[j:j + 1], alpha[j:j + 1], masks[j:j + 1])
+            assert alone[0] == together[j]
+        assert together.dtype == np.float64
+        # ... and they are Eq. 3.1 of the tour (float32 jax computation, to float32 precision).
+        rewards, tours = cl.evaluate_clusters(builder, D, beta, psi, gidx, alpha, masks, with_tours=True)
+        for j in (0, 17, 299):
+            b = beta[gidx[j]].at[0].set(alpha[j])
+            want = float(world.tour_reward(D[gidx[j]], b, psi[gidx[j]], jnp.asarray(tours[j])))
+            assert rewards[j] == pytest.approx(want, rel=1e-5, abs=1e-4)

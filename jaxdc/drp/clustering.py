@@ -31,7 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdc.drp.tours import BUILDERS, build_order, gi_trajectory
-from jaxdc.drp.world import tour_reward
+from jaxdc.drp.world import tour_parts
 
 CLUSTERINGS = ("nc", "pgc")
 
@@ -51,25 +51,25 @@ def _bucket(size, n):
     return n if k >= 0.9 * n else min(k, n)
 
 
-def _widths(area):
-    """The two batch widths of a size bucket whose arrays have ``area`` entries: 64 and a wide one
-    (``2**20 / area`` jobs, 64 to 4096).
+def _width(area):
+    """The batch width of a size bucket whose arrays have ``area`` entries: ``2**19 / area`` jobs,
+    rounded down to a power of two, 16 to 4096.
 
     Each width is one compiled program per (builder, bucket), and XLA takes seconds per
-    program on a CPU, so there are only two: calls on small clusters cost mostly their
-    fixed overhead and want wide batches, but a part-filled batch costs as much as a full one.
+    program on a CPU, so there is one: wide for small clusters, whose calls cost mostly
+    their fixed overhead, narrower for large ones, where a part-filled batch wastes work.
+    The rewards do not depend on it (they are computed from the tours on the host).
     """
-    return 64, int(max(64, min(4096, 2 ** 20 // area)))
+    return 1 << int(np.clip(np.log2(2 ** 19 / area), 4, 12))
 
 
-def _bucketed(sizes, n, run, order=None, area=lambda K: K * K):
+def _bucketed(sizes, n, run, order=None, area=lambda K: (K + 1) ** 2):
     """Call ``run(K, part, pad)`` for every size bucket ``K`` and chunk of jobs.
 
     Jobs are grouped by :func:`_bucket` of ``sizes``, sorted by ``order``
     (default: their size) so that jobs of similar loop length share a
-    ``while_loop``, and cut into chunks of the wide width of :func:`_widths`
-    while at least a quarter of one is left, then of 64; ``pad`` is ``part``
-    padded to its width by repeating its first job.
+    ``while_loop``, and cut into chunks of the width of :func:`_width`; ``pad``
+    is ``part`` padded to its width by repeating its first job.
     """
     sizes = np.asarray(sizes)
     order = sizes if order is None else np.asarray(order)
@@ -77,13 +77,10 @@ def _bucketed(sizes, n, run, order=None, area=lambda K: K * K):
     for K in np.unique(buckets):
         sel = np.flatnonzero(buckets == K)
         sel = sel[np.argsort(order[sel], kind="stable")]
-        small, wide = _widths(area(int(K)))
-        start = 0
-        while start < len(sel):
-            width = wide if len(sel) - start > wide // 4 else small
+        width = _width(area(int(K)))
+        for start in range(0, len(sel), width):
             part = sel[start:start + width]
             run(int(K), part, np.concatenate([part, np.full(width - len(part), part[0])]))
-            start += width
 
 
 def _members(masks, K):
@@ -95,90 +92,100 @@ def _members(masks, K):
     return subs
 
 
-def _tour_parts(D, psi, tour):
-    """``P_t(0)`` of a tour: its return probability, computed as in :func:`tour_gain`."""
-    valid = tour >= 0
-    node = jnp.where(valid, tour, 0)
-    prev = jnp.concatenate([jnp.zeros((1,), node.dtype), node[:-1]])
-    reach = jnp.cumsum(jnp.where(valid, D[prev, node], 0.0))
-    last = jnp.where(valid.any(), node[jnp.maximum(valid.sum() - 1, 0)], 0)
-    return jnp.where(valid.any(), psi ** (reach[-1] + D[last, 0]), 0.0)
-
-
 @partial(jax.jit, static_argnames=("criterion", "K"))
-def _evaluate(criterion, K, D, P, beta, psi, gidx, alpha, subs, sizes, prefix=None, done=None):
-    """Tours and rewards of the clusters ``subs [J, K]`` (members, ``sizes [J]`` of them) of graph
-    ``gidx`` at robot value ``alpha``.
+def _evaluate(criterion, K, P, beta, gidx, alpha, subs, sizes, prefix=None, done=None):
+    """Tours of the clusters ``subs [J, K]`` (members, ``sizes [J]`` of them) of graph ``gidx`` at
+    robot value ``alpha``, in graph indices ``[J, K]`` padded with ``-1``.
 
     Each cluster is compacted to ``K`` slots (members in index order, so ties
-    still go to the lowest node; ``P = psi**D`` gathered, not recomputed) before
-    ``BuildTour`` runs on it. Returns ``(reward, tour, collected, p_return)``:
-    Eq. 3.1 for the tour, the tour in graph indices, and its alpha-free parts
-    ``sum_v P_t(v) beta(v)`` and ``P_t(0)`` (``reward = collected + p_return *
-    alpha - alpha`` up to rounding; see :func:`_combine`). With ``prefix [J, n+1]``
-    (partial GI tours in graph indices, base first) and ``done [J]`` (their
-    lengths), GI resumes from them instead of starting empty.
+    still go to the lowest node; ``P = psi**D`` is gathered straight from the
+    ``[G, n+1, n+1]`` array, one ``[K+1, K+1]`` block per job) before
+    ``BuildTour`` runs on it. With ``prefix [J, n+1]`` (partial GI tours in graph
+    indices, base first) and ``done [J]`` (their lengths), GI resumes from them
+    instead of starting empty.
     """
 
     def one(g, a, sub, size, pre, d):
         sub = jnp.concatenate([jnp.zeros((1,), sub.dtype), sub])
         ms = jnp.concatenate([jnp.zeros((1,), bool), jnp.arange(K) < size])
-        Ps = P[g][sub[:, None], sub[None, :]]
-        bs = beta[g][sub].at[0].set(a)
+        Ps = P[g, sub[:, None], sub[None, :]]
+        bs = beta[g, sub].at[0].set(a)
         resume = None
         if pre is not None:
-            n1 = D.shape[1]
+            n1 = P.shape[1]
             slots = jnp.arange(1, K + 1, dtype=jnp.int32)
             rank = jnp.zeros((n1,), jnp.int32).at[sub[1:]].set(jnp.where(slots <= size, slots, 0))
             inpre = jnp.zeros((n1,), bool).at[pre].set(True)
             ms = ms & ~inpre[sub]
             resume = (rank[pre[: K + 1]], d)
         tour = build_order(criterion, Ps, bs, ms, resume)
-        tour = jnp.where(tour >= 0, sub[jnp.maximum(tour, 0)], -1)
-        reward = tour_reward(D[g], beta[g].at[0].set(a), psi[g], tour)
-        collected = tour_reward(D[g], beta[g].at[0].set(0.0), psi[g], tour)
-        return reward, tour, collected, _tour_parts(D[g], psi[g], tour)
+        return jnp.where(tour >= 0, sub[jnp.maximum(tour, 0)], -1)
 
     return jax.vmap(one)(gidx, alpha, subs, sizes, prefix, done)
 
 
-def _run_evaluate(criterion, D, beta, psi, gidx, alpha, masks, P=None, resume=None):
+def _host_parts(D64, beta64, psi64, gidx, tours):
+    """``(collected, p_return)`` of tours ``[J, L]`` (graph indices) of graphs ``gidx``, in float64 on
+    the host (:func:`jaxdc.drp.world.tour_parts`).
+
+    Every reward NC and the plans use comes from here, computed from the tour alone: a
+    fixed NumPy program, so a cluster's reward does not depend on the compiled tour
+    program or on the batch it was built in (XLA's float32 results do).
+    """
+    g = np.asarray(gidx)
+
+    def dist(a, b):
+        return D64[g.reshape(g.shape + (1,) * (a.ndim - 1)), a, b]
+
+    return tour_parts(dist, lambda v: beta64[g[:, None], v], psi64[g], np.asarray(tours), xp=np)
+
+
+def _host_arrays(D, beta, psi):
+    """``(D, beta, psi)`` as float64 NumPy arrays for :func:`_host_parts`."""
+    return tuple(np.asarray(x, np.float64) for x in (D, beta, psi))
+
+
+def _run_evaluate(criterion, D, beta, psi, gidx, alpha, masks, P=None, resume=None, host=None):
     """:func:`_evaluate` for a batch of any sizes (bucketed by size, chunked): numpy
-    ``(reward [J], tours [J, n], collected [J], p_return [J])``."""
+    ``(reward [J], tours [J, n], collected [J], p_return [J])``, the rewards in float64.
+    ``host``: :func:`_host_arrays` of ``(D, beta, psi)`` if already at hand."""
     masks = np.asarray(masks, bool)
     J, n1 = masks.shape
     n = n1 - 1
     P = psi[:, None, None] ** D if P is None else P
     gidx = np.asarray(gidx, np.int32)
     alpha = np.asarray(alpha, np.float32)
-    out = (np.zeros(J, np.float32), np.full((J, n), -1, np.int32), np.zeros(J, np.float32), np.zeros(J, np.float32))
+    tours = np.full((J, n), -1, np.int32)
     sizes = masks.sum(1).astype(np.int32)
     subs = _members(masks, n)
 
+    pending = []
+
     def run(K, part, pad):
         extra = () if resume is None else (jnp.asarray(resume[0][pad]), jnp.asarray(resume[1][pad], jnp.int32))
-        res = _evaluate(criterion, K, D, P, beta, psi, jnp.asarray(gidx[pad]), jnp.asarray(alpha[pad]),
-                        jnp.asarray(subs[pad, :K]), jnp.asarray(sizes[pad]), *extra)
-        for o, r in zip(out, res):
-            if o.ndim == 2:
-                o[part, :K] = np.asarray(r)[: len(part)]
-            else:
-                o[part] = np.asarray(r)[: len(part)]
+        pending.append((K, part, _evaluate(criterion, K, P, beta, jnp.asarray(gidx[pad]), jnp.asarray(alpha[pad]),
+                                           jnp.asarray(subs[pad, :K]), jnp.asarray(sizes[pad]), *extra)))
 
     # Resumed jobs share a while_loop best when they have as many insertions left.
     _bucketed(sizes, n, run, order=None if resume is None else sizes - np.asarray(resume[1]))
-    return out
+    for K, part, res in pending:  # read back after every call is dispatched: the host work overlaps the builds
+        tours[part, :K] = np.asarray(res)[: len(part)]
+    width = max(1, int(sizes.max(initial=1)))
+    collected, p_return = _host_parts(*(host or _host_arrays(D, beta, psi)), gidx, tours[:, :width])
+    return _combine(collected, p_return, alpha), tours, collected, p_return
 
 
-def evaluate_clusters(criterion, D, beta, psi, gidx, alpha, masks, with_tours=False, resume=None, P=None):
+def evaluate_clusters(criterion, D, beta, psi, gidx, alpha, masks, with_tours=False, resume=None, P=None,
+                      host=None):
     """``R(C)`` for a batch of clusters of any sizes (bucketed by size, chunked, jitted).
 
     ``D [G, n+1, n+1]``, ``beta [G, n+1]``, ``psi [G]``; ``gidx``, ``alpha``: ``[J]``;
     ``masks``: ``[J, n+1]`` bool. ``resume = (prefix [J, n+1], done [J])``: GI only,
     continue each tour from a partial tour (see :func:`_evaluate`). ``P``: ``psi**D``
-    if already at hand. Returns rewards ``[J]`` (and tours ``[J, n]`` of graph indices).
+    if already at hand (``host``: :func:`_host_arrays`). Returns rewards ``[J]``, float64 (Eq. 3.1 of each
+    tour, computed on the host from the tour, :func:`_host_parts`), and tours ``[J, n]`` of graph indices.
     """
-    rewards, tours, _, _ = _run_evaluate(criterion, D, beta, psi, gidx, alpha, masks, P, resume)
+    rewards, tours, _, _ = _run_evaluate(criterion, D, beta, psi, gidx, alpha, masks, P, resume, host)
     return (rewards, tours) if with_tours else rewards
 
 
@@ -211,35 +218,35 @@ def gi_trajectories(D, beta, psi, gidx, alpha, masks):
     return cycles, first
 
 
-def evaluate_parts(criterion, D, beta, psi, gidx, masks, P=None):
+def evaluate_parts(criterion, D, beta, psi, gidx, masks, P=None, host=None):
     """``(collected, p_return)`` of the append-builder tours of ``masks [J, n+1]`` (graph ``gidx``).
 
     The append criteria never look at ``beta(0) = alpha`` (node 0 is never a
     candidate and is masked out of every sum), so the tour is the same for
-    every robot value; it is built with ``beta(0) = 0``, which makes the
-    builder's reward exactly the collected part ``sum_v P_t(v) beta(v)``.
+    every robot value; it is built with ``beta(0) = 0``.
     ``R(C) = collected + p_return * alpha - alpha`` (:func:`_combine`).
     """
-    _, _, collected, p_return = _run_evaluate(criterion, D, beta, psi, gidx, np.zeros(len(gidx), np.float32), masks, P)
+    _, _, collected, p_return = _run_evaluate(criterion, D, beta, psi, gidx, np.zeros(len(gidx), np.float32), masks,
+                                              P, host=host)
     return collected, p_return
 
 
 def _combine(collected, p_return, alpha):
-    """``R(C)`` from the alpha-free parts, in float32 and in :func:`tour_reward`'s order of operations."""
-    collected = np.asarray(collected, np.float32)
-    alpha = np.asarray(alpha, np.float32)
-    return (collected + np.asarray(p_return, np.float32) * alpha) - alpha
+    """``R(C) = collected + P_t(0) alpha - alpha`` (Eq. 3.1 for one tour) from the alpha-free parts, in
+    float64 (0 for an empty tour: both parts are 0)."""
+    alpha = np.asarray(alpha, np.float64)
+    return (np.asarray(collected, np.float64) + np.asarray(p_return, np.float64) * alpha) - alpha
 
 
 class _TourCache:
     """``(graph, node set) -> (collected, p_return)`` for the append builders, shared by all
     robot values of a graph and by all NC rounds: each node set's tour is built once."""
 
-    def __init__(self, criterion, D, beta, psi, P):
-        self.args = (criterion, D, beta, psi, P)
+    def __init__(self, criterion, D, beta, psi, P, host):
+        self.args = (criterion, D, beta, psi, P, host)
         self.index = {}
-        self.collected = np.zeros(0, np.float32)
-        self.p_return = np.zeros(0, np.float32)
+        self.collected = np.zeros(0, np.float64)
+        self.p_return = np.zeros(0, np.float64)
         self.built = 0
 
     def rewards(self, gidx, masks, alpha):
@@ -252,7 +259,7 @@ class _TourCache:
         new = np.flatnonzero(slot < 0)
         if len(new):
             rows = first[new]
-            c, p = evaluate_parts(*self.args[:4], gidx[rows], masks[rows], self.args[4])
+            c, p = evaluate_parts(*self.args[:4], gidx[rows], masks[rows], *self.args[4:])
             base = len(self.collected)
             self.collected = np.concatenate([self.collected, c])
             self.p_return = np.concatenate([self.p_return, p])
@@ -275,7 +282,7 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=F
       progress: optional callable, called once per merge round.
       cache: for the append builders, build each (graph, node set)'s tour only
         once and share it across robot values and rounds (the tour does not
-        depend on alpha; see :func:`_evaluate_parts`). Same result as
+        depend on alpha; see :func:`evaluate_parts`). Same result as
         ``cache=False``. GI's tours depend on alpha, so GI never caches.
       resume: for GI, after a merge run GI once over the new cluster ``C_a``
         (:func:`gi_trajectories`) and build each ``C_a ∪ C_k`` by resuming from
@@ -296,6 +303,7 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=F
     beta = jnp.asarray(beta, jnp.float32)
     psi = jnp.asarray(psi, jnp.float32)
     P = psi[:, None, None] ** D
+    host = _host_arrays(D, beta, psi)
     gidx = np.asarray(gidx, np.int32)
     alpha = np.asarray(alpha, np.float32)
     I, n1 = len(gidx), D.shape[1]
@@ -309,31 +317,31 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=F
     # Singletons and the initial all-pairs round.
     inst = np.repeat(np.arange(I), n1 - 1)
     nodes = np.tile(np.arange(1, n1), I)
-    R = np.zeros((I, n1), np.float32)
+    R = np.zeros((I, n1), np.float64)
     a_idx, b_idx = np.triu_indices(n1 - 1, 1)
     a_idx, b_idx = a_idx + 1, b_idx + 1
-    Rpair = np.full((I, n1, n1), -np.inf, np.float32)
+    Rpair = np.full((I, n1, n1), -np.inf, np.float64)
     npair = len(a_idx)
-    tc = _TourCache(criterion, D, beta, psi, P) if cache and criterion != "gi" else None
+    tc = _TourCache(criterion, D, beta, psi, P, host) if cache and criterion != "gi" else None
     if tc is not None:
         # Singletons and pairs: one build per graph, shared by all its robot values.
         # (No later round asks for a set of size < 3, so they are not stored.)
         m = eye[a_idx] | eye[b_idx]
         for g in np.unique(gidx):
             its = np.flatnonzero(gidx == g)
-            c1, p1 = evaluate_parts(criterion, D, beta, psi, np.full(n1 - 1, g, np.int32), eye[1:], P)
-            c2, p2 = evaluate_parts(criterion, D, beta, psi, np.full(npair, g, np.int32), m, P)
+            c1, p1 = evaluate_parts(criterion, D, beta, psi, np.full(n1 - 1, g, np.int32), eye[1:], P, host)
+            c2, p2 = evaluate_parts(criterion, D, beta, psi, np.full(npair, g, np.int32), m, P, host)
             for i in its:
                 R[i, 1:] = _combine(c1, p1, alpha[i])
                 Rpair[i, a_idx, b_idx] = _combine(c2, p2, alpha[i])
     else:
-        R[inst, nodes] = evaluate_clusters(criterion, D, beta, psi, gidx[inst], alpha[inst], eye[nodes], P=P)
+        R[inst, nodes] = evaluate_clusters(criterion, D, beta, psi, gidx[inst], alpha[inst], eye[nodes], P=P, host=host)
         for i in range(I):  # one instance's pairs at a time keeps the mask array small
             m = eye[a_idx] | eye[b_idx]
             Rpair[i, a_idx, b_idx] = evaluate_clusters(criterion, D, beta, psi, np.full(npair, gidx[i]),
-                                                       np.full(npair, alpha[i]), m, P=P)
+                                                       np.full(npair, alpha[i]), m, P=P, host=host)
     # gain[i, s, t] = R(C_s ∪ C_t) - R(C_s) - R(C_t) for live slots s < t, -inf elsewhere; kept up to
-    # date for the re-evaluated pairs only (the others' terms do not change), with the same float32 ops.
+    # date for the re-evaluated pairs only (the others' terms do not change), with the same float64 ops.
     gain = (Rpair - R[:, :, None]) - R[:, None, :]
     active = np.ones(I, bool)
     while True:
@@ -373,9 +381,9 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=F
             prefix = np.zeros((len(rows), n1), np.int32)
             prefix[:, : cycles.shape[2]] = cycles[rows, done]
             r = evaluate_clusters(criterion, D, beta, psi, gidx[inst_j], alpha[inst_j], masks,
-                                  resume=(prefix, done), P=P)
+                                  resume=(prefix, done), P=P, host=host)
         else:
-            r = evaluate_clusters(criterion, D, beta, psi, gidx[inst_j], alpha[inst_j], masks, P=P)
+            r = evaluate_clusters(criterion, D, beta, psi, gidx[inst_j], alpha[inst_j], masks, P=P, host=host)
         lo, hi = np.minimum(a_j, ks), np.maximum(a_j, ks)
         Rpair[inst_j, lo, hi] = r
         gain[inst_j, lo, hi] = (r - R[inst_j, lo]) - R[inst_j, hi]

@@ -60,23 +60,36 @@ def arrays(graph: Graph):
     return distances(graph.base, graph.nodes), node_values(graph.rewards, graph.alpha), jnp.float32(graph.psi)
 
 
+def tour_parts(dist, beta_of, psi, tour, xp=jnp):
+    """The two alpha-free parts of Eq. 3.1 for tours ``[..., L]``: ``(sum_v P_t(v) beta(v), P_t(0))``.
+
+    ``dist(a, b)`` and ``beta_of(v)`` look up distances and node rewards for index
+    arrays shaped like ``tour`` (or like ``tour[..., 0]``), so one code serves a
+    single graph under ``jit`` (``xp = jax.numpy``) and a batch of tours of many
+    graphs on the host (``xp = numpy``, float64: :mod:`jaxdc.drp.clustering`).
+    ``psi`` is a scalar or has the batch shape ``tour.shape[:-1]``. An empty tour
+    (all ``-1``) has parts ``(0, 0)``.
+    """
+    valid = tour >= 0
+    node = xp.where(valid, tour, 0)
+    prev = xp.concatenate([xp.zeros_like(node[..., :1]), node[..., :-1]], axis=-1)
+    reach = xp.cumsum(xp.where(valid, dist(prev, node), 0.0), axis=-1)  # D_t(0, v)
+    psi = xp.asarray(psi)
+    collected = xp.sum(xp.where(valid, psi[..., None] ** reach * beta_of(node), 0.0), axis=-1)
+    count = valid.sum(-1)
+    last = xp.take_along_axis(node, xp.maximum(count - 1, 0)[..., None], axis=-1)[..., 0]
+    home = reach[..., -1] + dist(last, xp.zeros_like(last))
+    return collected, xp.where(count > 0, psi ** home, 0.0)
+
+
 def tour_gain(D, beta, psi, tour):
     """The gain of one tour, the inner sum of Eq. 3.1: ``sum_{v in t} P_t(v) beta(v)``.
 
     The sum runs over the visited nodes *and* the final return to 0, whose
     value is ``beta[0] = alpha``. An empty tour (all ``-1``) has gain 0.
     """
-    tour = jnp.asarray(tour)
-    valid = tour >= 0
-    node = jnp.where(valid, tour, 0)
-    prev = jnp.concatenate([jnp.zeros((1,), node.dtype), node[:-1]])
-    step = jnp.where(valid, D[prev, node], 0.0)
-    reach = jnp.cumsum(step)  # D_t(0, v)
-    collected = jnp.sum(jnp.where(valid, psi ** reach * beta[node], 0.0))
-    last = jnp.where(valid.any(), node[jnp.maximum(valid.sum() - 1, 0)], 0)
-    home = reach[-1] + D[last, 0]
-    returned = jnp.where(valid.any(), psi ** home * beta[0], 0.0)
-    return collected + returned
+    collected, p_return = tour_parts(lambda a, b: D[a, b], lambda v: beta[v], psi, jnp.asarray(tour))
+    return collected + p_return * beta[0]
 
 
 def tour_reward(D, beta, psi, tour):
