@@ -1,5 +1,7 @@
 """The six builders against the plain-Python transcription of Eqs. 3.2-3.8."""
 
+from functools import partial
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -133,10 +135,10 @@ def test_gi_trajectory_breaks_ties_like_a_fresh_build():
         assert _resumed(D, beta, union, cycles, first, extra)[1] == want
 
 
-@pytest.mark.parametrize("builder", ["osa", "gml"])
+@pytest.mark.parametrize("builder", ["osa", "gml", "gi"])
 def test_phased_builds_equal_single_phase_builds(builder):
-    # Above K = 32 OSA and GML run in quarters on compacted columns (tours._append_phases); the same clusters
-    # padded to K = 24 (one phase, all columns) must give the same tours.
+    # Above K = 32 OSA, GML and GI run in quarters on compacted columns (tours._append_phases, tours._gi_phases);
+    # the same clusters padded to K = 24 (fewer phases, all columns) must give the same tours.
     g = world.generate(4, n=40, size=60, rewards="5", alpha=20.0)  # equal rewards: many exact ties
     D, beta, psi = world.arrays(g)
     P = psi ** D
@@ -150,4 +152,5 @@ def test_phased_builds_equal_single_phase_builds(builder):
         got = np.asarray(build(P[subs[:, :, None], subs[:, None, :]], beta[subs], jnp.asarray(masks)))
         out.extend([[int(sub[v]) for v in t if v >= 0] for sub, t in zip(subs, got)])
     assert small == big
-    assert len(tours._append_phases(builder, 40)) == 4 and len(tours._append_phases(builder, 24)) == 1
+    phases = tours._gi_phases if builder == "gi" else partial(tours._append_phases, builder)
+    assert len(phases(40)) == 4 and len(phases(24)) == (2 if builder == "gi" else 1)

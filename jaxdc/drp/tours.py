@@ -125,6 +125,26 @@ def _gi_insert(cycle, rows, P, u, i, k):
     return cycle.astype(jnp.int32), rows
 
 
+def _gi_phases(n):
+    """Static phases of :func:`_gi_tour` for ``K = n``: ``(end, rows, cols)`` per phase.
+
+    A phase runs while the partial tour has ``m < end`` nodes. Slots fill in insertion
+    order, so the used slots are among the first ``rows``; at most ``n - start``
+    nodes are still unassigned when it starts, so ``cols`` columns hold them all.
+    Two phases (halves) up to ``K = 32``, four (quarters) above, where the
+    ``[rows, cols]`` block is the work: about ``0.31 K^3`` entries per build
+    instead of ``0.75 K^3`` with halves over all columns.
+    """
+    q = 4 if n > 32 else 2
+    ends = sorted({(n + 2) * j // q for j in range(1, q)} | {n})
+    out, start = [], 0
+    for e in ends:
+        if e > start and start < n:
+            out.append((min(e, n), n + 1 if e >= n else e, max(n - start, 1)))
+        start = e
+    return tuple(out)
+
+
 def _gi_tour(P, beta, mask, cycle0=None, m0=0):
     """Greedy Insertion (GI, Eq. 3.8): the best node at the best position, cyclic tour. ``P = psi**D``.
 
@@ -144,9 +164,16 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
     ``1 - P(a, u') P(u', b) / P(a, b)`` of Eq. 3.8 is computed once per edge and
     kept, instead of for every edge at every step; only the ``[K+1]`` vectors
     ``P_t(a)`` and "value after ``a``" are recomputed, in tour order, as in
-    :func:`gi_scores`. Slots fill from the top, so while fewer than half are
-    used only that half of the block is scored. Ties: lowest node, then
-    earliest tour position.
+    :func:`gi_scores`. The loop runs in phases (:func:`_gi_phases`): slots fill
+    from the top, so a phase scores only the rows that can be used in it, and at
+    its start the columns are compacted to the nodes still unassigned (in index
+    order, so the same entries are computed and the lowest node still wins a
+    tie). ``pos`` (the tour position of each slot) is kept up to date rather than
+    recomputed, the position of the chosen node is picked on its own column
+    (recomputed with the same operations), and rows are replaced with selects,
+    not scatters (a vmapped ``.at[i].set`` is a scatter per step): about 1.8x
+    faster at ``K = 100`` than scattering, with the same tours. Ties: lowest node,
+    then earliest tour position.
     """
     n = P.shape[0] - 1
     mask = jnp.asarray(mask, bool).at[0].set(False)
@@ -161,15 +188,15 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
 
     def cond(limit):
         def go(st):
-            mask, m = st[0], st[-1]
-            return (m < limit) & mask.any()
+            cmask, m = st[1], st[-1]
+            return (m < limit) & cmask.any()
         return go
 
     def body(h):
         """One insertion, scoring only the first ``h`` slots (valid while ``m < h``)."""
 
         def step(st):
-            mask, order, node, rows, fac, m = st
+            cols, cmask, order, pos, node, rows, fac, m = st
             # Tour-order vectors, exactly as in gi_scores: order[j] is the slot at tour position j.
             inside = k <= m
             cyc = node[order]
@@ -179,23 +206,37 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
             collected = jnp.where((k >= 1) & inside, reach * beta[cyc], 0.0)
             home = jnp.prod(edge) * beta[0]
             after = collected.sum() - jnp.cumsum(collected) + home
-            pos = jnp.zeros((n + 1,), jnp.int32).at[order].set(k.astype(jnp.int32))  # tour position of each slot
             ph = pos[:h]
-            score = reach[ph][:, None] * rows[:h] * beta[None, :] - fac[:h] * after[ph][:, None]
-            score = jnp.where((k[:h] <= m)[:, None] & mask[None, :], score, -jnp.inf)
+            score = reach[ph][:, None] * rows[:h] * beta[cols][None, :] - fac[:h] * after[ph][:, None]
+            score = jnp.where((k[:h] <= m)[:, None] & cmask[None, :], score, -jnp.inf)
             best = score.max(axis=0)
-            u = jnp.argmax(best)  # lowest node
-            slot = jnp.argmin(jnp.where(score[:, u] == best[u], ph, n + 1))  # then earliest position
+            c = jnp.argmax(best)  # lowest node: cols is in index order
+            u = cols[c]
+            col = reach[ph] * rows[:h, c] * beta[u] - fac[:h, c] * after[ph]
+            col = jnp.where(k[:h] <= m, col, -jnp.inf)
+            slot = jnp.argmin(jnp.where(col == col.max(), ph, n + 1))  # then earliest position
             i = pos[slot]
             new = m + 1
             a, b = node[slot], nxt[i]
-            fac = fac.at[slot].set(factor(rows[slot], P[u], P[a, u])).at[new].set(factor(P[u], P[b], P[u, b]))
-            rows = rows.at[new].set(P[u])
-            node = node.at[new].set(u)
+            p_u = P[u][cols]
+            f_slot = factor(rows[slot], p_u, P[a, u])
+            f_new = factor(p_u, P[b][cols], P[u, b])
+            kk = k[:, None]
+            fac = jnp.where(kk == slot, f_slot[None, :], jnp.where(kk == new, f_new[None, :], fac))
+            rows = jnp.where(kk == new, p_u[None, :], rows)
+            node = jnp.where(k == new, u, node)
             order = jnp.where(k <= i, order, jnp.where(k == i + 1, new, jnp.where(k <= new, jnp.roll(order, 1), k)))
-            return mask.at[u].set(False), order.astype(jnp.int32), node, rows, fac, new
+            pos = jnp.where(k == new, i + 1, jnp.where(pos > i, pos + 1, pos))
+            cmask = cmask & (jnp.arange(cmask.shape[0]) != c)
+            return cols, cmask, order.astype(jnp.int32), pos.astype(jnp.int32), node, rows, fac, new
 
         return step
+
+    def compact(st, width):
+        """Keep ``width`` columns: the unassigned nodes first, in index order (a stable sort)."""
+        cols, cmask, order, pos, node, rows, fac, m = st
+        keep = jnp.argsort(~cmask, stable=True)[:width]
+        return cols[keep], cmask[keep], order, pos, node, rows[:, keep], fac[:, keep], m
 
     # Initial slots: the partial tour cycle0 in tour order.
     rows0 = P[cycle0]
@@ -203,11 +244,10 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
     p_ub0 = jnp.where((k < m0)[:, None], jnp.roll(rows0, -1, axis=0), P[0][None, :])
     edge0 = jnp.where(k <= m0, P[cycle0, nxt0], 1.0)
     fac0 = factor(rows0, p_ub0, edge0[:, None])
-    st = (mask, k.astype(jnp.int32), cycle0, rows0, fac0, m0)
-    # Two phases: while the partial tour has fewer than half the slots, score only those rows.
-    half = (n + 2) // 2
-    st = jax.lax.while_loop(cond(half), body(half), st)
-    _, order, node, _, _, m = jax.lax.while_loop(cond(n), body(n + 1), st)
+    st = (k.astype(jnp.int32), mask, k.astype(jnp.int32), k.astype(jnp.int32), cycle0, rows0, fac0, m0)
+    for end, h, width in _gi_phases(n):
+        st = jax.lax.while_loop(cond(end), body(h), compact(st, width))
+    order, node, m = st[2], st[4], st[-1]
     cycle = node[order]
     return jnp.where(k[1:] <= m, cycle[1:], -1)
 
