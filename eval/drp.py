@@ -19,6 +19,7 @@ import time
 
 import numpy as np
 
+from jaxdc.cli import positive_int
 from jaxdc.io import atomic_write, enable_compilation_cache
 
 FIGURE_REWARDS = {"3.1": "4-6", "3.2": "4-6", "3.3": "4-6", "3.4": "1-9", "3.5": "5"}
@@ -112,30 +113,47 @@ def _png(text: str) -> str:
 # ----------------------------------------------------------------------------- figures
 
 
-def run_experiment(rewards, graphs, nodes, alphas, base, seed, builders, clusterings, quiet=False):
-    """The section 3.5 experiment: per (clustering, builder, alpha) the expected reward of each graph."""
-    from tqdm import tqdm
-
+def experiment_arrays(rewards, graphs, nodes, alphas, base, seed):
+    """The section 3.5 instances: ``(D, beta, psi)`` of the generated graphs and ``(gidx, alpha)`` per instance."""
     from jaxdc.drp import world
 
     gs = [world.generate(seed + i, n=nodes, rewards=rewards, base=base) for i in range(graphs)]
     D, beta, psi = graph_arrays(gs)
-    gidx = np.repeat(np.arange(graphs), len(alphas))
-    al = np.tile(np.asarray(alphas, np.float32), graphs)
+    return D, beta, psi, np.repeat(np.arange(graphs), len(alphas)), np.tile(np.asarray(alphas, np.float32), graphs)
+
+
+def pgc_plans(builders, D, beta, psi, gidx, alphas, clusters, raw, timing):
+    """Algorithm 6's tours on the PGC ``clusters`` with each builder: fills ``raw[("pgc", b)]``
+    (``[graphs, alphas]`` rewards, instances graph-major) and ``timing[f"pgc_{b}"]``."""
+    from jaxdc.drp import clustering as cl
+
+    n_alpha = int(np.sum(gidx == gidx[0]))
+    for b in builders:
+        t0 = time.perf_counter()
+        res = cl.plan_tours(b, D, beta, psi, gidx, alphas, clusters)
+        raw[("pgc", b)] = np.asarray([r for r, _ in res]).reshape(-1, n_alpha)
+        timing[f"pgc_{b}"] = time.perf_counter() - t0
+
+
+def run_experiment(rewards, graphs, nodes, alphas, base, seed, builders, clusterings, quiet=False, progress=None):
+    """The section 3.5 experiment: per (clustering, builder, alpha) the expected reward of each graph.
+
+    The progress bar counts NC merge rounds (``nodes + 1`` per builder) and PGC instances;
+    ``progress(k)``, if given, is called with those units instead of drawing a bar.
+    """
+    from tqdm import tqdm
+
+    D, beta, psi, gidx, al = experiment_arrays(rewards, graphs, nodes, alphas, base, seed)
     raw, timing = {}, {}
     total = len(builders) * ("nc" in clusterings) * (nodes + 1) + ("pgc" in clusterings) * len(gidx)
-    with tqdm(total=total, desc=f"DRP rewards {rewards}", disable=quiet, file=sys.stderr) as bar:
+    with tqdm(total=total, desc=f"DRP rewards {rewards}", disable=quiet or progress is not None,
+              file=sys.stderr) as bar:
+        advance = progress or bar.update
         if "pgc" in clusterings:
             t0 = time.perf_counter()
-            clusters = pgc_clusters(D, beta, psi, gidx, al, progress=lambda: bar.update(1))
-            from jaxdc.drp import clustering as cl
-
+            clusters = pgc_clusters(D, beta, psi, gidx, al, progress=lambda: advance(1))
             timing["pgc_clustering"] = time.perf_counter() - t0
-            for b in builders:
-                t0 = time.perf_counter()
-                res = cl.plan_tours(b, D, beta, psi, gidx, al, clusters)
-                raw[("pgc", b)] = np.asarray([r for r, _ in res]).reshape(graphs, len(alphas))
-                timing[f"pgc_{b}"] = time.perf_counter() - t0
+            pgc_plans(builders, D, beta, psi, gidx, al, clusters, raw, timing)
         if "nc" in clusterings:
             for b in builders:
                 t0 = time.perf_counter()
@@ -144,38 +162,92 @@ def run_experiment(rewards, graphs, nodes, alphas, base, seed, builders, cluster
                 def tick():
                     done[0] += 1
                     if done[0] <= nodes:
-                        bar.update(1)
+                        advance(1)
 
                 res = solve_instances(b, "nc", D, beta, psi, gidx, al, progress=tick)
-                bar.update(nodes + 1 - min(done[0], nodes))
+                advance(nodes + 1 - min(done[0], nodes))
                 raw[("nc", b)] = np.asarray([r for r, _ in res]).reshape(graphs, len(alphas))
                 timing[f"nc_{b}"] = time.perf_counter() - t0
     return raw, timing
 
 
+#: Relative cost of NC with each builder (NC + GI = 1), from the per-part times of the full figure-3.1 run
+#: (100 graphs x 100 nodes, docs/drp.md); only used to balance the processes.
+NC_COST = {"gi": 1.0, "gml": 0.50, "osa": 0.34, "lpg": 0.24, "tl": 0.24, "ng": 0.17}
+
+
+def builder_groups(builders, workers):
+    """Split ``builders`` over at most ``workers`` processes, heaviest first onto the lightest process."""
+    groups = [[] for _ in range(min(workers, len(builders)))]
+    load = [0.0] * len(groups)
+    for b in sorted(builders, key=lambda b: -NC_COST.get(b, 1.0)):
+        i = load.index(min(load))
+        groups[i].append(b)
+        load[i] += NC_COST.get(b, 1.0)
+    return groups
+
+
 def _worker(task):
-    cache, *rest = task
+    """One process: NC with its builders, then PGC plans with them on the clusters the parent sends.
+    Progress (NC rounds) goes to the parent through ``ticks``."""
+    cache, clusters_q, ticks, rewards, graphs, nodes, alphas, base, seed, builders, clusterings = task
     if cache:
         enable_compilation_cache()
-    return run_experiment(*rest, quiet=True)
+    raw, timing = {}, {}
+    if "nc" in clusterings:
+        raw, timing = run_experiment(rewards, graphs, nodes, alphas, base, seed, builders, ("nc",),
+                                     progress=ticks.put)
+    if "pgc" in clusterings:
+        D, beta, psi, gidx, al = experiment_arrays(rewards, graphs, nodes, alphas, base, seed)
+        pgc_plans(builders, D, beta, psi, gidx, al, clusters_q.get(), raw, timing)
+    return raw, timing
 
 
-def run_parallel(workers, rewards, graphs, nodes, alphas, base, seed, cache, quiet):
-    """:func:`run_experiment` split over processes: PGC (all builders) and NC one builder per task."""
+def run_parallel(workers, rewards, graphs, nodes, alphas, base, seed, cache, quiet,
+                 builders=None, clusterings=("nc", "pgc")):
+    """:func:`run_experiment` split over processes: each worker takes a group of builders
+    (:func:`builder_groups`) for NC and for the PGC plans, and compiles only their programs;
+    the parent computes the PGC clusters (pure Python) meanwhile and sends them to every worker.
+    Same results as :func:`run_experiment` (tests/test_drp_cli.py)."""
     import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    import queue as queue_mod
+    from concurrent.futures import ProcessPoolExecutor
 
     from tqdm import tqdm
 
     from jaxdc.drp.tours import BUILDERS
 
-    tasks = [(cache, rewards, graphs, nodes, alphas, base, seed, [b], ("nc",)) for b in ("gi",) + BUILDERS[:-1]]
-    tasks.append((cache, rewards, graphs, nodes, alphas, base, seed, BUILDERS, ("pgc",)))
+    builders = list(builders or BUILDERS)
+    groups = builder_groups(builders, workers)
+    ctx = mp.get_context("spawn")
     raw, timing = {}, {}
-    with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
-        futures = [pool.submit(_worker, t) for t in tasks]
-        for f in tqdm(as_completed(futures), total=len(futures), desc=f"DRP rewards {rewards} (tasks)",
-                      disable=quiet, file=sys.stderr):
+    total = len(builders) * ("nc" in clusterings) * (nodes + 1) + ("pgc" in clusterings) * graphs * len(alphas)
+    with ctx.Manager() as manager, ProcessPoolExecutor(len(groups), mp_context=ctx) as pool, \
+            tqdm(total=total, desc=f"DRP rewards {rewards} ({len(groups)} processes)", disable=quiet,
+                 file=sys.stderr) as bar:
+        clusters_q, ticks = manager.Queue(), manager.Queue()
+
+        def drain(block=False):
+            try:
+                while True:
+                    bar.update(ticks.get(timeout=0.5) if block else ticks.get_nowait())
+                    block = False
+            except queue_mod.Empty:
+                pass
+
+        futures = [pool.submit(_worker, (cache, clusters_q, ticks, rewards, graphs, nodes, alphas, base, seed, g,
+                                         clusterings)) for g in groups]
+        if "pgc" in clusterings:
+            D, beta, psi, gidx, al = experiment_arrays(rewards, graphs, nodes, alphas, base, seed)
+            t0 = time.perf_counter()
+            clusters = pgc_clusters(D, beta, psi, gidx, al, progress=lambda: (bar.update(1), drain()))
+            timing["pgc_clustering"] = time.perf_counter() - t0
+            for _ in groups:
+                clusters_q.put(clusters)
+        while not all(f.done() for f in futures):
+            drain(block=True)
+        drain()
+        for f in futures:
             r, t = f.result()
             raw.update(r)
             timing.update(t)
@@ -196,6 +268,29 @@ def summarise(raw, alphas):
                 row["pgc_over_nc"] = float(r[:, k].mean() / nc_mean) if nc_mean > 0 else None
             rows.append(row)
     return norm, rows
+
+
+def markdown_tables(rows, alphas, builders):
+    """The experiment's normalised mean (SD) per clustering and PGC/NC as markdown tables, builders in the
+    thesis' order of quality (GI, TL, LPG, OSA, GML, NG), at ``alphas``."""
+    order = [b for b in ("gi", "tl", "lpg", "osa", "gml", "ng") if b in builders]
+    at = {(r["clustering"], r["builder"], r["alpha"]): r for r in rows}
+    head = lambda title: [f"| {title} | " + " | ".join(f"α={a:g}" for a in alphas) + " |",  # noqa: E731
+                          "|---|" + "---|" * len(alphas)]
+    out = []
+    for c in ("nc", "pgc"):
+        if not any((c, b, a) in at for b in order for a in alphas):
+            continue
+        out += head(f"{c.upper()} mean (SD)")
+        out += [f"| {b.upper()} | " + " | ".join(f"{at[c, b, a]['mean']:.3f} ({at[c, b, a]['sd']:.3f})"
+                                                for a in alphas) + " |" for b in order]
+        out.append("")
+    if any(("pgc", b, a) in at and ("nc", b, a) in at for b in order for a in alphas):
+        out += head("PGC / NC")
+        out += [f"| {b.upper()} | " + " | ".join("–" if at["pgc", b, a].get("pgc_over_nc") is None else
+                                                f"{at['pgc', b, a]['pgc_over_nc']:.2f}" for a in alphas) + " |"
+                for b in order]
+    return "\n".join(out)
 
 
 def _plot(rows, alphas, builders, figure, path):
@@ -267,8 +362,12 @@ def cmd_figure(args):
         atomic_write(data_path[:-5] + ".csv", buf.getvalue())
     png = os.path.join(args.out, f"fig{args.figure.replace('.', '_')}_{tag}.png")
     _plot(cached["rows"], alphas, BUILDERS, args.figure, png)
-    print(json.dumps({"figure": args.figure, "data": data_path, "png": png,
-                      "wall_seconds": round(cached["wall_seconds"], 1)}))
+    if args.markdown:
+        show = [a for a in alphas if a in (10, 20, 30, 40, 50, 60)] or alphas
+        print(markdown_tables(cached["rows"], show, BUILDERS))
+    else:
+        print(json.dumps({"figure": args.figure, "data": data_path, "png": png,
+                          "wall_seconds": round(cached["wall_seconds"], 1)}))
     return 0
 
 
@@ -331,8 +430,11 @@ def main(argv=None):
     pf.add_argument("--quick", action="store_true", help="10 graphs of 30 nodes")
     pf.add_argument("--force", action="store_true", help="recompute even if cached results exist")
     pf.add_argument("--cache", action="store_true", help="persistent XLA compilation cache (~/.cache/jaxdc/xla; JAXDC_NO_CACHE=1 turns it off)")
-    pf.add_argument("--workers", type=int, default=1, help="processes (NC builders run in parallel)")
+    pf.add_argument("--workers", type=positive_int("--workers"), default=min(os.cpu_count() or 1, 6),
+                    help="processes, each taking a group of builders (default: one per CPU core, at most 6)")
     pf.add_argument("--quiet", action="store_true")
+    pf.add_argument("--markdown", action="store_true",
+                    help="print the normalised mean (SD) and PGC/NC tables at alpha = 10..60 instead of the JSON line")
     pg = sub.add_parser("gaps", help="heuristics against the exact solver on small graphs")
     pg.add_argument("--graphs", type=int, default=200)
     pg.add_argument("--nodes", type=int, default=8)

@@ -56,6 +56,9 @@ def test_summarise_normalises_by_alpha_zero():
     r = {(x["clustering"], x["alpha"]): x for x in rows}
     assert r[("nc", 20)]["mean"] == 0.25 and r[("nc", 0)]["sd"] == 0.5
     assert r[("pgc", 20)]["pgc_over_nc"] == pytest.approx(0.5)
+    md = cli.markdown_tables(rows, [20], ["gi"]).splitlines()
+    assert md[0] == "| NC mean (SD) | α=20 |" and md[2] == "| GI | 0.250 (0.000) |"
+    assert "| GI | 0.125 (0.025) |" in md and md[-1] == "| GI | 0.50 |"
 
 
 def test_plot_writes_png(tmp_path):
@@ -78,3 +81,30 @@ def test_plan_draw_writes_the_tours(tmp_path, capsys):
     with pytest.raises(SystemExit):
         cli.main(["--out", str(tmp_path), "plan", "--graph", str(tmp_path / "g.json"), "--draw", "plan.jpg"])
     assert "must name a .png file" in capsys.readouterr().err
+
+
+def test_builder_groups_cover_every_builder_once_and_balance():
+    from jaxdc.drp.tours import BUILDERS
+
+    for workers in (1, 2, 3, 6, 10):
+        groups = cli.builder_groups(list(BUILDERS), workers)
+        assert len(groups) == min(workers, len(BUILDERS))
+        assert sorted(b for g in groups for b in g) == sorted(BUILDERS)
+    two = cli.builder_groups(list(BUILDERS), 2)
+    loads = sorted(sum(cli.NC_COST[b] for b in g) for g in two)
+    assert loads[1] - loads[0] <= max(cli.NC_COST.values()) - min(cli.NC_COST.values())
+    assert ["gi"] in [g[:1] for g in two]  # the heaviest builder starts a group
+
+
+def test_figure_experiment_in_processes_equals_one_process():
+    # Two worker processes (builder groups, PGC clusters sent by the parent) give exactly the rewards of the
+    # in-process experiment: the rewards are computed from the tours on the host (float64), so neither the
+    # compiled programs of another process nor the batches the tours were built in can move them.
+    args = ("4-6", 2, 8, [0, 20, 40], "centre", 3)
+    want, _ = cli.run_experiment(*args, ["ng", "gi"], ("nc", "pgc"), quiet=True)
+    got, timing = cli.run_parallel(2, *args, False, True, builders=["ng", "gi"])
+    assert sorted(got) == sorted(want)
+    for key in want:
+        np.testing.assert_array_equal(got[key], want[key])
+    assert (want[("nc", "gi")][:, 1:] > 0).any()  # some robot is sent: the comparison is not vacuous
+    assert {"pgc_clustering", "nc_gi", "nc_ng", "pgc_gi", "pgc_ng"} <= set(timing)
