@@ -27,13 +27,21 @@
 
     python -m benchmarks.drp --against bb1d1f1 --cc-graphs 2 --cc-builders gi,ng [--json]
 
-5. ``--fig-against REV`` (instead of 1-4): the figure-3.1 experiment (all 12
+5. ``--build-against REV`` (instead of 1-4): the six tour programs alone
+   (``tours.build_order``, jitted and vmapped over ``B`` random ``K``-node
+   clusters of a 100-node graph, best of 5 warm calls) of ``REV`` and of the
+   working tree, each in a fresh process; checks the tours are identical.
+
+    python -m benchmarks.drp --build-against e10e983 --build-sizes 100x32,16x1024 [--json]
+
+6. ``--fig-against REV`` (instead of 1-5): the figure-3.1 experiment (all 12
    combinations, ``eval.drp.run_experiment``) on ``--cc-graphs`` graphs of
    ``--cc-nodes`` nodes x ``--cc-alphas``, with the ``jaxdc`` of ``REV`` and the
    working tree's, each in a fresh process run twice (first run with every
    compilation, then warm), one after the other; reports the total and
-   per-part times and checks that all rewards are *exactly* equal (else, per
-   combination, how many instances differ and by how much at most).
+   per-part times and checks whether all rewards are *exactly* equal (else, per
+   combination, how many instances differ and by how much at most) and whether
+   they agree to float32 tolerance (relative 1e-5).
 
     python -m benchmarks.drp --fig-against 9dd8b83 --cc-graphs 4 --cc-nodes 100 [--json]
 
@@ -273,6 +281,53 @@ def _fig_child(graphs, nodes, alphas, out):
     np.savez(out, **res)
 
 
+def _build_child(K, B, out):
+    """Child of :func:`build_against`: each builder's vmapped tour program on ``B`` random ``K``-node clusters of
+    a 100-node graph, best of 5 warm calls, with whichever ``jaxdc`` is first on ``sys.path``."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaxdc.drp import tours, world
+
+    D, beta, psi = world.arrays(world.generate(1, n=100, rewards="4-6", alpha=40.0))
+    P = psi ** D
+    rng = np.random.default_rng(0)
+    subs = np.stack([np.concatenate([[0], np.sort(rng.choice(np.arange(1, 101), K, replace=False))])
+                     for _ in range(B)])
+    Ps, bs = jnp.asarray(P[subs[:, :, None], subs[:, None, :]]), jnp.asarray(beta[subs])
+    ms = jnp.ones((B, K + 1), bool)
+    res = {}
+    for b in tours.BUILDERS:
+        f = jax.jit(jax.vmap(lambda P, beta, m, b=b: tours.build_order(b, P, beta, m)))
+        res[f"tours_{b}"] = np.asarray(f(Ps, bs, ms))
+        times = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            f(Ps, bs, ms).block_until_ready()
+            times.append(time.perf_counter() - t0)
+        res[f"ms_{b}"] = 1e3 * min(times)
+    np.savez(out, **res)
+
+
+def build_against(rev, sizes):
+    """The tour programs alone (``tours.build_order``, vmapped) of ``rev`` and of the working tree, for each
+    ``(K, B)`` in ``sizes``: milliseconds per call and whether the tours are identical."""
+    from jaxdc.drp.tours import BUILDERS
+
+    tags = [f"{K}x{B}" for K, B in sizes]
+    child = lambda tag, out: (f"from benchmarks.drp import _build_child; "  # noqa: E731
+                              f"_build_child({tag.replace('x', ', ')}, {out!r})")
+    got = {(tag, side): z for tag, side, z in _against(rev, child, tags)}
+    rows = []
+    for tag, (K, B) in zip(tags, sizes):
+        old, new = got[tag, "old"], got[tag, "new"]
+        for b in BUILDERS:
+            rows.append({"builder": b, "K": K, "B": B, "against": rev, "old_ms": round(float(old[f"ms_{b}"]), 2),
+                         "new_ms": round(float(new[f"ms_{b}"]), 2), "speedup": float(old[f"ms_{b}"] / new[f"ms_{b}"]),
+                         "identical_tours": bool(np.array_equal(old[f"tours_{b}"], new[f"tours_{b}"]))})
+    return rows
+
+
 def figure_against(rev, graphs, nodes, alphas):
     """The figure-3.1 experiment with the ``jaxdc`` of ``rev`` and the working tree's (fresh processes)."""
     child = lambda _, out: (f"from benchmarks.drp import _fig_child; "  # noqa: E731
@@ -288,6 +343,12 @@ def figure_against(rev, graphs, nodes, alphas):
     raws = sorted(k for k in old if k.startswith("raw_"))
     row["identical_rewards"] = bool(raws == sorted(k for k in new if k.startswith("raw_")) and
                                     all(np.array_equal(old[k], new[k]) for k in raws))
+    # Float tolerance: since 2026-12-01 the rewards are float64 from the tours (before, XLA float32), so a
+    # revision before that differs in the last float32 bits even where every tour is the same.
+    rel = [float(np.max(np.abs(old[k] - new[k]) / np.maximum(np.abs(old[k]), 1.0))) for k in raws if k in new]
+    row["max_rel_reward_difference"] = max(rel, default=0.0)
+    row["rewards_within_float32_tolerance"] = bool(raws == sorted(k for k in new if k.startswith("raw_")) and
+                                                   row["max_rel_reward_difference"] <= 1e-5)
     # per combination: instances whose reward differs, and the largest difference
     row["reward_differences"] = {k[4:]: [int((old[k] != new[k]).sum()), float(np.abs(old[k] - new[k]).max())]
                                  for k in raws if k in new and not np.array_equal(old[k], new[k])}
@@ -343,10 +404,18 @@ def main(argv=None):
                    help="only: how much NC+GI with resume=True skips on one --nodes graph at --alpha")
     p.add_argument("--against", metavar="REV",
                    help="only: NC with the jaxdc of git revision REV vs the working tree's (--cc-* settings)")
+    p.add_argument("--build-against", metavar="REV",
+                   help="only the tour programs of REV against the working tree's (see --build-sizes)")
+    p.add_argument("--build-sizes", default="100x32,16x1024", help="KxB: B clusters of K nodes per call")
     p.add_argument("--fig-against", metavar="REV",
                    help="only: the figure-3.1 experiment with the jaxdc of REV vs the working tree's (--cc-graphs, "
                         "--cc-nodes, --cc-alphas)")
     args = p.parse_args(argv)
+    if args.build_against:
+        sizes = [tuple(int(x) for x in kb.split("x")) for kb in args.build_sizes.split(",")]
+        rows = build_against(args.build_against, sizes)
+        print(json.dumps(rows) if args.json else json.dumps(rows, indent=1))
+        return
     if args.fig_against:
         row = figure_against(args.fig_against, args.cc_graphs, args.cc_nodes,
                              [float(a) for a in args.cc_alphas.split(",")])
