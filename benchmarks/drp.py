@@ -30,7 +30,8 @@
 5. ``--build-against REV`` (instead of 1-4): the six tour programs alone
    (``tours.build_order``, jitted and vmapped over ``B`` random ``K``-node
    clusters of a 100-node graph, best of 5 warm calls) of ``REV`` and of the
-   working tree, each in a fresh process; checks the tours are identical.
+   working tree, fresh processes alternating old/new three times (best of
+   the three per side); checks the tours are identical.
 
     python -m benchmarks.drp --build-against e10e983 --build-sizes 100x32,16x1024 [--json]
 
@@ -41,7 +42,8 @@
    compilation, then warm), one after the other; reports the total and
    per-part times and checks whether all rewards are *exactly* equal (else, per
    combination, how many instances differ and by how much at most) and whether
-   they agree to float32 tolerance (relative 1e-5).
+   they agree to float32 tolerance (relative 1e-5), and whether every plan
+   (the tours of every combination and instance) is identical.
 
     python -m benchmarks.drp --fig-against 9dd8b83 --cc-graphs 4 --cc-nodes 100 [--json]
 
@@ -268,16 +270,29 @@ def nc_against(rev, graphs, nodes, alphas, builders):
 def _fig_child(graphs, nodes, alphas, out):
     """Child of :func:`figure_against`: the figure-3.1 experiment twice (first run, warm) with whichever
     ``jaxdc`` is first on ``sys.path``; rewards and times to ``out``."""
+    import json
+
     from eval.drp import run_experiment
+    from jaxdc.drp import clustering as cl
     from jaxdc.drp.tours import BUILDERS
 
+    plans, inner = [], cl.plan_tours
+
+    def recorded(criterion, *args, **kwargs):  # every plan's tours, in call order (same in both versions)
+        out = inner(criterion, *args, **kwargs)
+        plans.append([criterion, [tours for _, tours in out]])
+        return out
+
+    cl.plan_tours = recorded
     res = {}
     for run in ("first", "warm"):
+        plans.clear()
         t0 = time.perf_counter()
         raw, timing = run_experiment("4-6", graphs, nodes, alphas, "centre", 0, BUILDERS, ("nc", "pgc"), quiet=True)
         res[f"{run}_s"] = time.perf_counter() - t0
         res.update({f"{run}_t_{k}": v for k, v in timing.items()})
     res.update({f"raw_{c}_{b}": r for (c, b), r in raw.items()})
+    res["plans"] = np.asarray(json.dumps(plans))
     np.savez(out, **res)
 
 
@@ -309,22 +324,27 @@ def _build_child(K, B, out):
     np.savez(out, **res)
 
 
-def build_against(rev, sizes):
+def build_against(rev, sizes, rounds=3):
     """The tour programs alone (``tours.build_order``, vmapped) of ``rev`` and of the working tree, for each
-    ``(K, B)`` in ``sizes``: milliseconds per call and whether the tours are identical."""
+    ``(K, B)`` in ``sizes``: milliseconds per call (the best over ``rounds`` alternating old/new fresh processes,
+    so that a load change on the machine hits both sides) and whether the tours are identical."""
     from jaxdc.drp.tours import BUILDERS
 
-    tags = [f"{K}x{B}" for K, B in sizes]
+    tags = [f"{K}x{B}r{r}" for K, B in sizes for r in range(rounds)]
     child = lambda tag, out: (f"from benchmarks.drp import _build_child; "  # noqa: E731
-                              f"_build_child({tag.replace('x', ', ')}, {out!r})")
-    got = {(tag, side): z for tag, side, z in _against(rev, child, tags)}
+                              f"_build_child({tag.split('r')[0].replace('x', ', ')}, {out!r})")
+    got = {}
+    for tag, side, z in _against(rev, child, tags):
+        got.setdefault((tag.split("r")[0], side), []).append(z)
     rows = []
-    for tag, (K, B) in zip(tags, sizes):
-        old, new = got[tag, "old"], got[tag, "new"]
+    for K, B in sizes:
+        old, new = got[f"{K}x{B}", "old"], got[f"{K}x{B}", "new"]
         for b in BUILDERS:
-            rows.append({"builder": b, "K": K, "B": B, "against": rev, "old_ms": round(float(old[f"ms_{b}"]), 2),
-                         "new_ms": round(float(new[f"ms_{b}"]), 2), "speedup": float(old[f"ms_{b}"] / new[f"ms_{b}"]),
-                         "identical_tours": bool(np.array_equal(old[f"tours_{b}"], new[f"tours_{b}"]))})
+            o, n = min(float(z[f"ms_{b}"]) for z in old), min(float(z[f"ms_{b}"]) for z in new)
+            rows.append({"builder": b, "K": K, "B": B, "against": rev, "rounds": rounds, "old_ms": round(o, 2),
+                         "new_ms": round(n, 2), "speedup": o / n,
+                         "identical_tours": all(np.array_equal(x[f"tours_{b}"], y[f"tours_{b}"])
+                                                for x in old for y in new)})
     return rows
 
 
@@ -347,6 +367,7 @@ def figure_against(rev, graphs, nodes, alphas):
     # revision before that differs in the last float32 bits even where every tour is the same.
     rel = [float(np.max(np.abs(old[k] - new[k]) / np.maximum(np.abs(old[k]), 1.0))) for k in raws if k in new]
     row["max_rel_reward_difference"] = max(rel, default=0.0)
+    row["identical_plans"] = bool("plans" in old and "plans" in new and str(old["plans"]) == str(new["plans"]))
     row["rewards_within_float32_tolerance"] = bool(raws == sorted(k for k in new if k.startswith("raw_")) and
                                                    row["max_rel_reward_difference"] <= 1e-5)
     # per combination: instances whose reward differs, and the largest difference
