@@ -405,6 +405,17 @@ def gi_resume_stats(nodes=100, alpha=20.0, seed=0):
             "share_skipped": acc["skipped"] / acc["insertions"]}
 
 
+def _build_sizes(text):
+    """argparse type of ``--build-sizes``: ``KxB,...`` with 1 <= K <= 100 (the graph has 100 nodes), B >= 1."""
+    try:
+        sizes = [tuple(int(x) for x in kb.split("x")) for kb in text.split(",")]
+    except ValueError:
+        sizes = None
+    if not sizes or any(len(s) != 2 or not 1 <= s[0] <= 100 or s[1] < 1 for s in sizes):
+        raise argparse.ArgumentTypeError(f"--build-sizes must be KxB,... with 1 <= K <= 100 and B >= 1, got {text!r}")
+    return sizes
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--nodes", type=int, default=100)
@@ -427,14 +438,14 @@ def main(argv=None):
                    help="only: NC with the jaxdc of git revision REV vs the working tree's (--cc-* settings)")
     p.add_argument("--build-against", metavar="REV",
                    help="only the tour programs of REV against the working tree's (see --build-sizes)")
-    p.add_argument("--build-sizes", default="100x32,16x1024", help="KxB: B clusters of K nodes per call")
+    p.add_argument("--build-sizes", type=_build_sizes, default="100x32,16x1024",
+                   help="comma-separated KxB: B clusters of K nodes (1 <= K <= 100) per call")
     p.add_argument("--fig-against", metavar="REV",
                    help="only: the figure-3.1 experiment with the jaxdc of REV vs the working tree's (--cc-graphs, "
                         "--cc-nodes, --cc-alphas)")
     args = p.parse_args(argv)
     if args.build_against:
-        sizes = [tuple(int(x) for x in kb.split("x")) for kb in args.build_sizes.split(",")]
-        rows = build_against(args.build_against, sizes)
+        rows = build_against(args.build_against, args.build_sizes)
         print(json.dumps(rows) if args.json else json.dumps(rows, indent=1))
         return
     if args.fig_against:

@@ -135,6 +135,12 @@ def pgc_plans(builders, D, beta, psi, gidx, alphas, clusters, raw, timing):
         timing[f"pgc_{b}"] = time.perf_counter() - t0
 
 
+def progress_units(builders, clusterings, nodes, instances):
+    """The progress bar's length: ``nodes + 1`` NC merge rounds per builder (an upper bound; the rest is
+    added when NC stops) and one unit per PGC instance."""
+    return len(builders) * ("nc" in clusterings) * (nodes + 1) + ("pgc" in clusterings) * instances
+
+
 def run_experiment(rewards, graphs, nodes, alphas, base, seed, builders, clusterings, quiet=False, progress=None):
     """The section 3.5 experiment: per (clustering, builder, alpha) the expected reward of each graph.
 
@@ -145,7 +151,7 @@ def run_experiment(rewards, graphs, nodes, alphas, base, seed, builders, cluster
 
     D, beta, psi, gidx, al = experiment_arrays(rewards, graphs, nodes, alphas, base, seed)
     raw, timing = {}, {}
-    total = len(builders) * ("nc" in clusterings) * (nodes + 1) + ("pgc" in clusterings) * len(gidx)
+    total = progress_units(builders, clusterings, nodes, len(gidx))
     with tqdm(total=total, desc=f"DRP rewards {rewards}", disable=quiet or progress is not None,
               file=sys.stderr) as bar:
         advance = progress or bar.update
@@ -221,7 +227,7 @@ def run_parallel(workers, rewards, graphs, nodes, alphas, base, seed, cache, qui
     groups = builder_groups(builders, workers)
     ctx = mp.get_context("spawn")
     raw, timing = {}, {}
-    total = len(builders) * ("nc" in clusterings) * (nodes + 1) + ("pgc" in clusterings) * graphs * len(alphas)
+    total = progress_units(builders, clusterings, nodes, graphs * len(alphas))
     with ctx.Manager() as manager, ProcessPoolExecutor(len(groups), mp_context=ctx) as pool, \
             tqdm(total=total, desc=f"DRP rewards {rewards} ({len(groups)} processes)", disable=quiet,
                  file=sys.stderr) as bar:
@@ -275,8 +281,10 @@ def markdown_tables(rows, alphas, builders):
     thesis' order of quality (GI, TL, LPG, OSA, GML, NG), at ``alphas``."""
     order = [b for b in ("gi", "tl", "lpg", "osa", "gml", "ng") if b in builders]
     at = {(r["clustering"], r["builder"], r["alpha"]): r for r in rows}
-    head = lambda title: [f"| {title} | " + " | ".join(f"α={a:g}" for a in alphas) + " |",  # noqa: E731
-                          "|---|" + "---|" * len(alphas)]
+
+    def head(title):
+        return [f"| {title} | " + " | ".join(f"α={a:g}" for a in alphas) + " |", "|---|" + "---|" * len(alphas)]
+
     out = []
     for c in ("nc", "pgc"):
         if not any((c, b, a) in at for b in order for a in alphas):

@@ -27,3 +27,11 @@ def test_every_shipped_file_has_an_entry_that_regenerates_it():
 def test_every_entry_names_a_dcp_network_and_its_tables():
     for name, (tables, args) in ship.ALL.items():
         assert tables and args[0] == "--net" and args[1] in ("enn", "linear", "cnn", "eqn"), name
+
+
+def test_bad_steps_is_a_usage_error_naming_the_flag(capsys):
+    import pytest
+
+    with pytest.raises(SystemExit) as e:
+        ship.main(["--steps", "0", "--only", "enn"])
+    assert e.value.code == 2 and "--steps must be an integer >= 1, got 0" in capsys.readouterr().err

@@ -94,12 +94,13 @@ def export(name: str, run: str, command: list[str], out: str) -> str:
 
 
 def main(argv=None) -> int:
+    from jaxdc.cli import positive_int
     from jaxdc.pretrained import ASSETS
 
     p = argparse.ArgumentParser(prog="python -m train.ship", description=__doc__.split("\n")[0])
     p.add_argument("--only", nargs="+", choices=sorted(ALL), default=None,
                    help=f"names to regenerate (default: {', '.join(SHIPPED)})")
-    p.add_argument("--steps", type=int, default=1_000_000,
+    p.add_argument("--steps", type=positive_int("--steps"), default=1_000_000,
                    help="environment steps per run (thesis: 1M; enn_single_item and enn_long have their own)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--runs", default=os.path.join("runs", "ship"), help="folder of the run folders")
