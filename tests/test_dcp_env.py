@@ -241,6 +241,18 @@ def test_reset_multinomial_uniform():
     assert abs(items[:, 1, 1].mean() - total / n**2) < 4 * math.sqrt(total / n**2 * (1 - 1 / n**2) / m)
 
 
+def test_reset_min_total_reward_draws_the_total_uniformly():
+    m = 3000
+    _, s = _resets(DCP(grid_size=4, total_reward=6, min_total_reward=2), m, seed=4)
+    totals = np.asarray(s.items).reshape(m, -1).sum(axis=1).astype(int)
+    counts = np.bincount(totals, minlength=7)
+    assert counts[:2].sum() == 0 and counts.sum() == m  # always 2..6 units
+    assert stats.chisquare(counts[2:]).pvalue > 1e-4, counts
+    # min_total_reward == total_reward is the fixed drop
+    _, s = _resets(DCP(grid_size=4, total_reward=6, min_total_reward=6), 50)
+    assert np.all(np.asarray(s.items).reshape(50, -1).sum(axis=1) == 6)
+
+
 def test_reset_items_on_base_off():
     env = DCP(grid_size=3, total_reward=20, items_on_base=False)
     _, s = _resets(env, 300)
@@ -447,6 +459,9 @@ def test_determinism_by_seed():
         (dict(start="corner"), ValueError, "start"),
         (dict(energy_metric="joules"), ValueError, "energy_metric"),
         (dict(item_order="random"), ValueError, "item_order"),
+        (dict(total_reward=5, min_total_reward=6), ValueError, "min_total_reward"),
+        (dict(min_total_reward=0), ValueError, "min_total_reward"),
+        (dict(min_total_reward=2.0), TypeError, "min_total_reward"),
     ],
 )
 def test_bad_constructor_args(kwargs, exc, word):
@@ -478,6 +493,7 @@ def test_bad_make_params(kwargs, exc, word):
 def test_env_equality_and_defaults():
     assert DCP(grid_size=4) == DCP(grid_size=4) and hash(DCP(grid_size=4)) == hash(DCP(grid_size=4))
     assert DCP(grid_size=4) != DCP(grid_size=5)
+    assert DCP(grid_size=4) != DCP(grid_size=4, min_total_reward=1)
     p = DCP().default_params
     assert p.risk.shape == (8, 8) and float(p.init_energy) == 8.0 and float(p.max_energy) == 16.0
     assert DCP().num_actions == 9

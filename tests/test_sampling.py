@@ -41,3 +41,14 @@ def test_drop_units_counts_and_first_order():
 def test_drop_units_low_excludes_cells():
     counts, _ = drop_units(jax.random.PRNGKey(1), 500, 9, low=1)
     assert float(counts[0]) == 0.0 and float(counts.sum()) == 500
+
+
+def test_drop_units_count_keeps_the_first_draws():
+    key = jax.random.PRNGKey(7)
+    full, full_first = drop_units(key, 30, 64)
+    part, part_first = drop_units(key, 30, 64, count=jnp.int32(4))
+    part, part_first, full_first = np.asarray(part), np.asarray(part_first), np.asarray(full_first)
+    assert part.sum() == 4 and np.all(part <= np.asarray(full))
+    # the kept units are draws 0..3 of the full drop: the same cells, the same first-drop order
+    assert sorted(part_first[part > 0]) == sorted(full_first[full_first < 4])
+    assert np.all(part_first[part == 0] == 30)

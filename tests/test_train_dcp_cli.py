@@ -93,6 +93,8 @@ def test_nan_loss_stops_and_keeps_the_last_good_checkpoint(finished_run, tmp_pat
     (["--lr", "nan"], "--lr must be > 0"),
     (["--steps", "16"], "total_steps (16) must be >= num_envs * t_max (32)"),
     (["--energy", "9", "8"], "exceeds the maximum"),
+    (["--min-total-reward", "7"], "--min-total-reward (7) exceeds --total-reward (6)"),
+    (["--min-total-reward", "0"], "--min-total-reward must be an integer >= 1"),
     (["--seeds", "0,x"], "--seeds must be comma-separated ints"),
     (["--seeds", "1,1"], "--seeds must be distinct"),
     (["--devices", "64"], "--devices 64: JAX sees only"),

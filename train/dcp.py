@@ -82,6 +82,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default="high", help="risk preset (Table 4.2)")
     p.add_argument("--grid-size", type=positive_int("--grid-size"), default=8)
     p.add_argument("--total-reward", type=positive_int("--total-reward"), default=30)
+    p.add_argument("--min-total-reward", type=positive_int("--min-total-reward"), default=None,
+                   help="beyond the thesis: each training episode drops a number of units drawn uniformly from "
+                        "MIN..--total-reward (one network for Tables 4.3, 4.6 and 4.8; default: always --total-reward)")
     p.add_argument("--energy", nargs=2, type=positive_float("--energy"), metavar=("INIT", "MAX"),
                    default=(8.0, 16.0), help="initial and maximal energy (Tables 4.3-4.8: 8 16)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=1000, help="episode step cap")
@@ -131,6 +134,9 @@ class Run(TrainingRun):
     def __init__(self, args):
         if args.energy[0] > args.energy[1]:
             raise ValueError(f"--energy: initial energy {args.energy[0]} exceeds the maximum {args.energy[1]}")
+        if args.min_total_reward is not None and args.min_total_reward > args.total_reward:
+            raise ValueError(f"--min-total-reward ({args.min_total_reward}) exceeds --total-reward "
+                             f"({args.total_reward})")
         self.args = args
         if args.tensorboard:
             tensorboard_writer(None)  # fail before any work if tensorboardX is missing
@@ -149,7 +155,8 @@ class Run(TrainingRun):
             self.config = A2CConfig(**common, entropy_coef=args.entropy, value_coef=args.value_coef,
                                     gae_lambda=args.gae_lambda, clip_eps=args.clip_eps, epochs=args.epochs,
                                     minibatches=args.minibatches, normalize_advantages=args.normalize_advantages)
-        self.env = dcp_env.DCP(grid_size=args.grid_size, total_reward=args.total_reward)
+        self.env = dcp_env.DCP(grid_size=args.grid_size, total_reward=args.total_reward,
+                               min_total_reward=args.min_total_reward)
         self.env_params = self.env.make_params(args.risk, tuple(args.energy), args.max_steps)
         table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
         self.heuristics = navigators.batched_heuristics(self.env_params, table)
@@ -167,13 +174,17 @@ class Run(TrainingRun):
         self.metadata = {
             "format": 1, "net": args.net, "grid_size": args.grid_size, "total_reward": args.total_reward,
             "risk": args.risk, "energy": list(args.energy), "max_steps": args.max_steps,
+            **({} if args.min_total_reward is None else {"min_total_reward": args.min_total_reward}),
             **({"seeds": self.seeds} if self.multi else {"seed": self.seeds[0]}),
             "algorithm": _algorithm_metadata(self.config),
         }
 
+        # evaluation always drops --total-reward units (the setting of the tables), also with --min-total-reward
+        eval_env = dcp_env.DCP(grid_size=args.grid_size, total_reward=args.total_reward)
+
         def evaluate(params, key):
             policy = self.policy(params)
-            return run_episodes(self.env, self.env_params, policy, key, args.eval_episodes)
+            return run_episodes(eval_env, self.env_params, policy, key, args.eval_episodes)
 
         self._evaluate = jax.jit(jax.vmap(evaluate) if self.multi else evaluate)
 

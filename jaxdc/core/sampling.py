@@ -24,14 +24,18 @@ def uniform_index(key, shape, n):
     return ((hi * n + ((lo * n) >> 16)) >> 16).astype(jnp.int32)
 
 
-def drop_units(key, units: int, cells: int, low: int = 0):
+def drop_units(key, units: int, cells: int, low: int = 0, count=None):
     """Drop ``units`` unit rewards uniformly on cells ``low .. cells-1`` (a multinomial).
 
     Returns ``(counts, first)``, both ``[cells]``: the units per cell, and the
     index of the first unit that landed on each cell (``units`` where none did),
-    which is the order of the item list.
+    which is the order of the item list. ``count`` (may be traced, ``<= units``)
+    keeps only the first ``count`` of the ``units`` draws: a drop of ``count``
+    units with a shape fixed by ``units``.
     """
     where = low + uniform_index(key, (units,), cells - low)
-    counts = jnp.zeros(cells, jnp.float32).at[where].add(1.0)
-    first = jnp.full(cells, units, jnp.int32).at[where].min(jnp.arange(units, dtype=jnp.int32))
+    index = jnp.arange(units, dtype=jnp.int32)
+    kept = jnp.ones(units, bool) if count is None else index < count
+    counts = jnp.zeros(cells, jnp.float32).at[where].add(kept.astype(jnp.float32))
+    first = jnp.full(cells, units, jnp.int32).at[where].min(jnp.where(kept, index, units))
     return counts, first

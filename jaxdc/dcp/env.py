@@ -95,6 +95,11 @@ class DCP(Environment[EnvState, EnvParams]):
         the state unchanged. A deterministic policy would then repeat that
         step forever, so for the navigators this only saves time; keep it
         off for stochastic policies.
+      min_total_reward: ``None`` (default, the thesis): every episode drops
+        ``total_reward`` units. An int ``1 <= m <= total_reward``: each
+        episode drops a number of units drawn uniformly from
+        ``m .. total_reward`` (a training distribution beyond the thesis, for
+        one network that plays Tables 4.3, 4.6 and 4.8; docs/learning.md).
     """
 
     def __init__(
@@ -106,6 +111,7 @@ class DCP(Environment[EnvState, EnvParams]):
         energy_metric: str = "not_stay_in_base",
         idle_terminates: bool = False,
         item_order: str = "drop",
+        min_total_reward: int | None = None,
     ):
         self.grid_size = grid.check_grid_size(grid_size)
         if self.grid_size**2 > MAX_RANGE:
@@ -114,6 +120,11 @@ class DCP(Environment[EnvState, EnvParams]):
             raise TypeError(f"total_reward must be an int >= 1, got {total_reward!r}")
         if total_reward < 1:
             raise ValueError(f"total_reward must be >= 1, got {total_reward}")
+        if min_total_reward is not None:
+            if isinstance(min_total_reward, bool) or not isinstance(min_total_reward, (int, np.integer)):
+                raise TypeError(f"min_total_reward must be None or an int, got {min_total_reward!r}")
+            if not 1 <= min_total_reward <= total_reward:
+                raise ValueError(f"min_total_reward must be in [1, total_reward={total_reward}], got {min_total_reward}")
         if start not in STARTS:
             raise ValueError(f"start must be one of {STARTS}, got {start!r}")
         if energy_metric not in ENERGY_METRICS:
@@ -126,16 +137,18 @@ class DCP(Environment[EnvState, EnvParams]):
         self.energy_metric = energy_metric
         self.idle_terminates = bool(idle_terminates)
         self.item_order = item_order
+        self.min_total_reward = None if min_total_reward is None else int(min_total_reward)
 
     def _config(self) -> tuple:
         return (self.grid_size, self.total_reward, self.start, self.items_on_base,
-                self.energy_metric, self.idle_terminates, self.item_order)
+                self.energy_metric, self.idle_terminates, self.item_order, self.min_total_reward)
 
     def __repr__(self) -> str:
         return (
             f"DCP(grid_size={self.grid_size}, total_reward={self.total_reward}, start={self.start!r}, "
             f"items_on_base={self.items_on_base}, energy_metric={self.energy_metric!r}, "
-            f"idle_terminates={self.idle_terminates}, item_order={self.item_order!r})"
+            f"idle_terminates={self.idle_terminates}, item_order={self.item_order!r}"
+            + ("" if self.min_total_reward is None else f", min_total_reward={self.min_total_reward}") + ")"
         )
 
     # -- parameters -------------------------------------------------------------------
@@ -167,7 +180,12 @@ class DCP(Environment[EnvState, EnvParams]):
         """A random initial state (section 4.3): multinomial items, then the start cell."""
         n = self.grid_size
         k_items, k_start = jax.random.split(key)
-        items, first = drop_units(k_items, self.total_reward, n * n, 0 if self.items_on_base else 1)
+        count = None
+        if self.min_total_reward is not None:  # units drawn uniformly from min_total_reward .. total_reward
+            k_items, k_count = jax.random.split(k_items)
+            span = self.total_reward - self.min_total_reward + 1
+            count = self.min_total_reward + uniform_index(k_count, (), span)
+        items, first = drop_units(k_items, self.total_reward, n * n, 0 if self.items_on_base else 1, count)
         rank = first if self.item_order == "drop" else jnp.arange(n * n, dtype=jnp.int32)
         if self.start == "base":
             flat = jnp.int32(0)
