@@ -162,3 +162,16 @@ def test_shipped_policy_beats_uniform_random(name):
     again = summarize(evaluate_learned(env, params, learned, key, n))["reward"]
     assert again == ours
     assert np.isfinite(ours["mean"])
+
+
+def test_shipped_enn_mix_records_its_mix_and_plays_one_item_better_than_enn():
+    """``enn_mix`` (trained on 1..30 units per episode) against ``enn`` (30 units) in Table 4.8's setting."""
+    mix, plain = (learned_lib.load(pretrained.shipped("dcp", n)) for n in ("enn_mix", "enn"))
+    assert mix.metadata["min_total_reward"] == 1 and "--min-total-reward 1" in mix.metadata["command"]
+    assert "min_total_reward" not in plain.metadata
+    env = DCP(grid_size=8, total_reward=1)
+    params = env.make_params("high", (8.0, 16.0), 1000)
+    n, key = 1000, jax.random.PRNGKey(0)
+    a, b = (summarize(evaluate_learned(env, params, x, key, n))["reward"] for x in (mix, plain))
+    se = math.sqrt((a["sd"] ** 2 + b["sd"] ** 2) / n)
+    assert a["mean"] - b["mean"] > 4 * se, (a, b)

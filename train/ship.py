@@ -5,6 +5,7 @@
     python -m train.ship --export-only        # re-export from finished run folders
     python -m train.ship --only enn_single_item   # the single-item ENN (beyond the thesis, 4M steps)
     python -m train.ship --only enn_long          # Table 4.3's ENN trained 16M steps (beyond the thesis)
+    python -m train.ship --only enn_mix           # one 1M-step ENN for Tables 4.3, 4.6, 4.8 (beyond the thesis)
 
 Each shipped network is trained with the defaults of ``python -m train.dcp``
 (the thesis' hyper-parameters, section 4.5), seed 0, 1M steps, in the
@@ -39,7 +40,9 @@ SHIPPED = {
 #: faithful A2C in Table 4.3's setting, trained 16M steps instead of 1M (goal: >= 10% above the thesis' ENN
 #: reward). ``enn_single_item``: the best single-item learner (goal: >= 97% of the exact optimum of Table
 #: 4.8's setting, ``jaxdc/dcp/optimal.py``); the thesis reuses the Table 4.3 ENN there, this one is trained on
-#: the single-item setting itself and evaluated greedily (``eval.dcp --greedy``).
+#: the single-item setting itself and evaluated greedily (``eval.dcp --greedy``). ``enn_mix``: one ENN at the
+#: thesis' 1M steps for Tables 4.3, 4.6 and 4.8, trained on episodes of 1..30 units (``--min-total-reward 1``)
+#: with Adam at 3e-4 (docs/learning.md, "One ENN for Tables 4.3, 4.6 and 4.8 at 1M steps").
 BEYOND = {
     "enn_long": ("4.3 (beyond the thesis: 16M steps)",
                  ["--net", "enn", "--risk", "high", "--energy", "8", "16",
@@ -47,6 +50,9 @@ BEYOND = {
     "enn_single_item": ("4.8 (beyond the thesis: trained on one item)",
                         ["--net", "enn", "--risk", "high", "--total-reward", "1", "--energy", "8", "16",
                          "--steps", "4000000", "--eval-every", "1000000", "--eval-episodes", "2000", "--greedy-eval"]),
+    "enn_mix": ("4.3, 4.6, 4.8 (beyond the thesis: 1..30 units per training episode, lr 3e-4)",
+                ["--net", "enn", "--risk", "high", "--energy", "8", "16", "--min-total-reward", "1", "--lr", "3e-4",
+                 "--eval-episodes", "2000"]),
 }
 ALL = {**SHIPPED, **BEYOND}
 
