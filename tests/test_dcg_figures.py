@@ -75,3 +75,26 @@ def test_area_claims_and_the_bound_goal():
     assert rows["The opponent-modelling networks beat VNN at every size, most at size 1 (Fig. 5.11)"][1] == "yes"
     goal = [v for c, v in rows.items() if "90%" in c][0]
     assert goal == ("size 1: 80.0%, size 2: 95.0%, size 3: 95.0%, size 4: 95.0%", "no")
+
+
+def test_better_and_more_claims_need_two_standard_errors():
+    def bar(reward, episodes=10_000):
+        return {**_summary(reward, sd=2.3), "episodes": episodes}
+
+    standard = {None: {"VNN": bar(3.216), "IMNN": bar(2.921)}}
+    # +0.03% (0.02 SE) is not "better"; +10% over 10,000 games each is
+    double = {None: {"VNN": bar(3.217), "IMNN": bar(1.1 * 2.921)}}
+    rows = {c: a for c, _, a in claims(EXPERIMENTS["double_blind"], double, standard)}
+    assert rows["VNN: better than in Fig. 5.6 (Fig. 5.18)"] == "no"
+    assert rows["IMNN: better than in Fig. 5.6 (Fig. 5.18)"] == "yes"
+    # the same +10% over 100 games each is within noise (SE 0.33)
+    few = {None: {"IMNN": bar(1.1 * 2.921, episodes=100)}}
+    rows = {c: a for c, _, a in claims(EXPERIMENTS["double_blind"], few, {None: {"IMNN": bar(2.921, 100)}})}
+    assert rows["IMNN: better than in Fig. 5.6 (Fig. 5.18)"] == "no"
+    # energy: VNN's "more reward at 10 than at 15" by 0.01 is not more
+    energy = {e: {"VNN": bar(r)} for e, r in ((10.0, 3.226), (15.0, 3.216), (20.0, 3.216))}
+    rows = {c: a for c, _, a in claims(EXPERIMENTS["energy"], energy)}
+    assert rows["VNN: more reward at energy 10 than at 15; similar at 20 (Fig. 5.8)"] == "no"
+    energy[10.0]["VNN"] = bar(3.5)
+    rows = {c: a for c, _, a in claims(EXPERIMENTS["energy"], energy)}
+    assert rows["VNN: more reward at energy 10 than at 15; similar at 20 (Fig. 5.8)"] == "yes"

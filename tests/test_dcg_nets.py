@@ -156,3 +156,29 @@ def test_shipped_parameters_fit_their_network(name):
     net = make_dcg_net(meta["net"], meta["history"])
     out = net.apply(params, jnp.zeros((2, 5, 5, 2 + meta["history"])))
     assert out[0].shape == (2, 9) and bool(jnp.all(jnp.isfinite(out[0])))
+
+
+#: Name suffix of a shipped DCG file trained outside the standard setting -> the metadata it must record.
+VARIANTS = {"_energy10": {"energy": 10.0}, "_energy20": {"energy": 20.0}, "_5m": {"steps": 5_000_000},
+            "_double_blind": {"strategies": ["patrol", "restricted", "double_blind"]}}
+
+
+def test_shipped_variants_record_the_setting_their_name_says():
+    """The retrained networks of Figs. 5.8/5.9 (energy), 5.16/5.17 (5M steps), 5.18/5.19 (double blind)."""
+    from jaxdc import pretrained
+
+    standard = {"energy": 15.0, "steps": 1_000_000, "strategies": ["patrol", "restricted", "with_fog"]}
+    seen = 0
+    for name in pretrained.shipped_names("dcg"):
+        suffix = next((s for s in VARIANTS if name.endswith(s)), None)
+        if suffix is None:
+            continue
+        seen += 1
+        params, meta = pretrained.load(pretrained.shipped("dcg", name), problem="dcg")
+        assert name.startswith(meta["net"] + "_"), name
+        for key, value in {**standard, **VARIANTS[suffix]}.items():
+            assert meta[key] == value, (name, key, meta[key])
+        net = make_dcg_net(meta["net"], meta["history"])
+        out = net.apply(params, jnp.zeros((1, 5, 5, 2 + meta["history"])))
+        assert out[0].shape == (1, 9) and bool(jnp.all(jnp.isfinite(out[0]))), name
+    assert seen >= 12, seen

@@ -166,6 +166,16 @@ def _fmt(x, d=1, suffix=""):
     return "n/a" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:+.{d}f}{suffix}"
 
 
+def _clearly_above(results_a, group_a, lab_a, results_b, group_b, lab_b, col="reward", k=2.0):
+    """Whether bar a's mean exceeds bar b's by more than ``k`` standard errors of the difference
+    (independent games); ``None`` if either bar is missing. A bar without an episode count counts as exact."""
+    a, b = results_a.get(group_a, {}).get(lab_a), results_b.get(group_b, {}).get(lab_b)
+    if a is None or b is None:
+        return None
+    var = sum(x[col]["sd"] ** 2 / x["episodes"] for x in (a, b) if x.get("episodes"))
+    return a[col]["mean"] - b[col]["mean"] > k * math.sqrt(var)
+
+
 def _find(results, group, net, alpha=None):
     """The label in ``results[group]`` of ``net`` (EMNN: with ``alpha``; else the first EMNN)."""
     labels = list(results.get(group, {}))
@@ -185,7 +195,9 @@ def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list
     """``(thesis claim, ours, agrees?)`` rows for ``exp``; ``results[group][label]`` are :func:`summarize` dicts.
 
     ``agrees`` is ``"yes"``, ``"no"`` or ``"n/a"`` (a network is missing);
-    "about X%" claims agree within 5 percentage points. ``standard`` (the
+    "about X%" claims agree within 5 percentage points; "more", "less",
+    "higher" and "better" between two bars only when the difference exceeds
+    two standard errors (:func:`_clearly_above`). ``standard`` (the
     standard experiment's results) lets the double-blind claims compare with
     Fig. 5.6.
     """
@@ -251,14 +263,16 @@ def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list
             if lb == "VNN":
                 rows.append(("VNN: more reward at energy 10 than at 15; similar at 20 (Fig. 5.8)",
                              f"10: {_fmt(_pct(r10, r15), 1, '%')}, 20: {_fmt(_pct(r20, r15), 1, '%')} vs 15" + how,
-                             yn(None if None in (r10, r15) else r10 > r15)))
+                             yn(_clearly_above(results, 10.0, lb, results, 15.0, lb))))
             else:
                 rows.append((f"{lb}: less reward at energy 10 than at 15; similar but slightly less at 20 (Fig. 5.8)",
                              f"10: {_fmt(_pct(r10, r15), 1, '%')}, 20: {_fmt(_pct(r20, r15), 1, '%')} vs 15" + how,
-                             yn(None if None in (r10, r15, r20) else r10 < r15 and -10 <= _pct(r20, r15) <= 0)))
+                             yn(None if None in (r10, r15, r20) else
+                                _clearly_above(results, 15.0, lb, results, 10.0, lb) and -10 <= _pct(r20, r15) <= 0)))
             rows.append((f"{lb}: RPE at 20 about that at 15; higher at 10 (Fig. 5.9)",
                          f"10: {_fmt(_pct(q10, q15), 1, '%')}, 20: {_fmt(_pct(q20, q15), 1, '%')} vs 15" + how,
-                         yn(None if None in (q10, q15, q20) else q10 > q15 and abs(_pct(q20, q15)) <= 5)))
+                         yn(None if None in (q10, q15, q20) else
+                            _clearly_above(results, 10.0, lb, results, 15.0, lb, "rpe") and abs(_pct(q20, q15)) <= 5)))
     elif exp.name == "area":
         sizes = [s for s in exp.groups if s in results]
         labs = list(results.get(sizes[0], {})) if sizes else []
@@ -296,7 +310,8 @@ def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list
             d = _pct(now, before)
             claim = (f"{NET_LABELS[net]}: better than in Fig. 5.6" if better
                      else f"{NET_LABELS[net]}: about the same as in Fig. 5.6")
-            ok = None if d is None else (d > 0 if better else abs(d) <= 5)
+            ok = None if d is None else (_clearly_above(results, g, lab, standard, g, _find(standard, g, net))
+                                         if better else abs(d) <= 5)
             note = results.get(g, {}).get(lab, {}).get("note") if lab else None
             rows.append((claim + " (Fig. 5.18)", f"{_fmt(d, 1, '%')} vs the standard set"
                          + (f" [{note}]" if note else ""), yn(ok)))
