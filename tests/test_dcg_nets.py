@@ -181,4 +181,4 @@ def test_shipped_variants_record_the_setting_their_name_says():
         net = make_dcg_net(meta["net"], meta["history"])
         out = net.apply(params, jnp.zeros((1, 5, 5, 2 + meta["history"])))
         assert out[0].shape == (1, 9) and bool(jnp.all(jnp.isfinite(out[0]))), name
-    assert seen >= 12, seen
+    assert seen >= 16, seen
