@@ -144,7 +144,7 @@ def test_conn_reads_omns_prediction(nets):
     assert not np.allclose(net.apply(params, obs)[0], net.apply(other, obs)[0])
 
 
-@pytest.mark.parametrize("name", ["vnn", "imnn", "emnn", "omn_conn", "omn_conn_envs1"])
+@pytest.mark.parametrize("name", ["vnn", "imnn", "emnn", "emnn_alpha1e-4", "omn_conn", "omn_conn_envs1"])
 def test_shipped_parameters_fit_their_network(name):
     """jaxdc/assets/dcg: every shipped file loads into make_dcg_net(net, history) for the standard setting."""
     from jaxdc import pretrained
