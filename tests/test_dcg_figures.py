@@ -98,3 +98,18 @@ def test_better_and_more_claims_need_two_standard_errors():
     energy[10.0]["VNN"] = bar(3.5)
     rows = {c: a for c, _, a in claims(EXPERIMENTS["energy"], energy)}
     assert rows["VNN: more reward at energy 10 than at 15; similar at 20 (Fig. 5.8)"] == "yes"
+
+
+def test_area_claims_need_two_standard_errors():
+    def bar(reward):
+        return {**_summary(reward, sd=0.3), "episodes": 10_000, "fraction_of_bound": 0.5}
+
+    # OMN+CoNN 0.001 above VNN (0.2 SE) at size 1 does not "beat" it; 0.05 (12 SE) at sizes 2-4 does
+    results = {s: {"VNN": bar(0.1 * s), "OMN+CoNN": bar(0.1 * s + (0.001 if s == 1 else 0.05))} for s in (1, 2, 3, 4)}
+    rows = {c: (o, a) for c, o, a in claims(EXPERIMENTS["area"], results)}
+    beat = rows["The opponent-modelling networks beat VNN at every size, most at size 1 (Fig. 5.11)"]
+    assert beat[0].startswith("size 1: no") and beat[1] == "no"
+    # a fall of 0.002 between sizes (0.5 SE) is not a fall
+    results = {s: {"VNN": bar(0.3 + 0.002 * s)} for s in (1, 2, 3, 4)}
+    rows = {c: (o, a) for c, o, a in claims(EXPERIMENTS["area"], results)}
+    assert rows["Every network's reward falls as the reward area shrinks (Fig. 5.11)"] == ("VNN: no", "no")

@@ -276,13 +276,13 @@ def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list
     elif exp.name == "area":
         sizes = [s for s in exp.groups if s in results]
         labs = list(results.get(sizes[0], {})) if sizes else []
-        mono = {lb: all(_m(results, a, lb) <= _m(results, b, lb) for a, b in zip(sizes, sizes[1:])
-                        if _m(results, a, lb) is not None and _m(results, b, lb) is not None) for lb in labs}
+        mono = {lb: all(_clearly_above(results, b, lb, results, a, lb) is not False for a, b in zip(sizes, sizes[1:]))
+                for lb in labs}
         rows.append(("Every network's reward falls as the reward area shrinks (Fig. 5.11)",
                      ", ".join(f"{lb}: {'yes' if ok else 'no'}" for lb, ok in mono.items()) or "n/a",
                      yn(all(mono.values()) if mono else None)))
         vnn = "VNN" if "VNN" in labs else None
-        beat = {s: all(_m(results, s, lb) > _m(results, s, vnn) for lb in labs if lb != vnn) for s in sizes} \
+        beat = {s: all(_clearly_above(results, s, lb, results, s, vnn) for lb in labs if lb != vnn) for s in sizes} \
             if vnn else {}
         rows.append(("The opponent-modelling networks beat VNN at every size, most at size 1 (Fig. 5.11)",
                      ", ".join(f"size {s}: {'yes' if ok else 'no'}" for s, ok in beat.items()) or "n/a",
