@@ -9,6 +9,7 @@ Examples::
     python -m eval.dcg figure 5.6                                   # Figs. 5.6/5.7 from the shipped networks
     python -m eval.dcg figure all --episodes 2000
     python -m eval.dcg render --net omn_conn --strategy patrol --seed 3 --greedy --reward-area 2
+    python -m eval.dcg optimum --episodes 2000                      # the full-information bound, 10 items
 
 An evaluation writes its JSON atomically to ``--out`` (default
 ``results/dcg``); ``--json`` prints exactly one JSON object. ``figure``
@@ -16,7 +17,9 @@ writes ``results/dcg/figure_<experiment>.{json,csv,md}`` and
 ``docs/img/dcg_fig<N>.png`` (evaluations are kept in ``runs/eval-cache/dcg/``
 and reused for the same parameter file and settings; ``--no-cache``
 re-runs them); ``render`` writes a PNG strip (Figs.
-5.13-5.15) and a GIF.
+5.13-5.15) and a GIF; ``optimum`` estimates the full-information bound of the
+standard game over sampled games (``jaxdc.dcg.game_optimum``) and writes
+``results/dcg/optimum_<settings>.json``.
 """
 
 from __future__ import annotations
@@ -54,14 +57,18 @@ def _add_network(p, required=True):
                       "e.g. vnn, imnn, emnn, omn_conn")
 
 
+def _add_strategy_set(p, default, default_text):
+    sets = p.add_mutually_exclusive_group()
+    sets.add_argument("--strategies", type=_strategies, default=default,
+                      help=f"comma-separated opponent strategies (default: {default_text})")
+    sets.add_argument("--double-blind", action="store_true",
+                      help=f"play {','.join(DOUBLE_BLIND_STRATEGIES)} (section 5.5.7, Figs. 5.18-5.19)")
+
+
 def _add_game(p):
     p.add_argument("--energy", type=positive_float("--energy", allow_inf=True), default=None,
                    help="maximum energy (default: as trained; 10/15/20 in Figs. 5.8-5.9)")
-    sets = p.add_mutually_exclusive_group()
-    sets.add_argument("--strategies", type=_strategies, default=None,
-                      help="comma-separated opponent strategies (default: as trained)")
-    sets.add_argument("--double-blind", action="store_true",
-                      help=f"play {','.join(DOUBLE_BLIND_STRATEGIES)} (section 5.5.7, Figs. 5.18-5.19)")
+    _add_strategy_set(p, None, "as trained")
     p.add_argument("--reward-area", type=positive_int("--reward-area"), default=None, metavar="S",
                    help="one unit item in the bottom-right S x S square (Figs. 5.10-5.12)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None,
@@ -72,7 +79,8 @@ def _add_game(p):
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m eval.dcg", description=__doc__.split("\n\n")[0],
                                 epilog="subcommands: `figure FIG` (see `python -m eval.dcg figure -h`), "
-                                       "`render` (see `python -m eval.dcg render -h`)")
+                                       "`render` (see `python -m eval.dcg render -h`), "
+                                       "`optimum` (see `python -m eval.dcg optimum -h`)")
     _add_network(p)
     _add_game(p)
     p.add_argument("--episodes", type=positive_int("--episodes"), default=10_000)
@@ -121,6 +129,35 @@ def render_parser() -> argparse.ArgumentParser:
     p.add_argument("--cols", type=positive_int("--cols"), default=None, help="frames per row in the strip")
     p.add_argument("--fps", type=positive_int("--fps"), default=4)
     p.add_argument("--out", default=os.path.join(RESULTS, "render"), help="folder for the PNG and GIF")
+    return p
+
+
+def optimum_parser() -> argparse.ArgumentParser:
+    from jaxdc.dcg.env import OPPONENT_STARTS, PATROL_TARGETS
+    from jaxdc.dcg.opponents import CHASE_TIES
+
+    p = argparse.ArgumentParser(prog="python -m eval.dcg optimum",
+                                description="Estimate the full-information bound of the DCG over sampled games: the "
+                                            "most reward any collector could take from each game, knowing the "
+                                            "opponent's strategy and hidden state (jaxdc.dcg.game_optimum).")
+    p.add_argument("--grid-size", type=positive_int("--grid-size"), default=5, help="N (5 in the thesis)")
+    p.add_argument("--total-reward", type=positive_int("--total-reward"), default=10, help="unit rewards dropped")
+    p.add_argument("--energy", type=positive_float("--energy", allow_inf=True), default=15.0,
+                   help="maximum energy, a whole number or inf (15; 10/20 in Figs. 5.8-5.9)")
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=100, help="step cap (100)")
+    p.add_argument("--chase-tie", choices=CHASE_TIES[:2], default=CHASE_TIES[0],
+                   help="tie rule of 'moves towards' (deterministic ones only)")
+    _add_strategy_set(p, STANDARD_STRATEGIES, "the standard set of 5.5.1")
+    p.add_argument("--opponent-start", choices=OPPONENT_STARTS, default=OPPONENT_STARTS[0])
+    p.add_argument("--patrol-target", choices=PATROL_TARGETS, default=PATROL_TARGETS[0])
+    p.add_argument("--no-items-on-base", action="store_true", help="the drop leaves the base empty")
+    p.add_argument("--no-reward-when-caught", action="store_true",
+                   help="an item taken on the step the collector is caught does not count")
+    p.add_argument("--episodes", type=positive_int("--episodes"), default=2000, help="sampled games (2000)")
+    p.add_argument("--seed", type=int, default=0, help="the games' PRNG key")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
+    p.add_argument("--out", default=RESULTS, help="folder for the result JSON")
     return p
 
 
@@ -538,12 +575,52 @@ def cmd_render(argv) -> int:
     return 0
 
 
+# -- the full-information bound of the standard game --------------------------------------------------
+def cmd_optimum(argv) -> int:
+    parser = optimum_parser()
+    args = parser.parse_args(argv)
+    try:
+        import jax
+        import numpy as np
+
+        from jaxdc.dcg import DCG
+        from jaxdc.dcg.game_optimum import sampled_bound
+
+        env = DCG(grid_size=args.grid_size, total_reward=args.total_reward, history=1, obs_history=False,
+                  strategies=strategy_set(args), opponent_start=args.opponent_start, patrol_target=args.patrol_target,
+                  items_on_base=not args.no_items_on_base, reward_when_caught=not args.no_reward_when_caught)
+        params = env.make_params(energy=args.energy, max_steps=args.max_steps, chase_tie=args.chase_tie)
+        res = sampled_bound(env, params, jax.random.PRNGKey(args.seed), args.episodes,
+                            progress=not args.no_progress)
+    except (TypeError, ValueError, NotImplementedError) as e:
+        parser.error(str(e))
+    rewards = res.pop("rewards")
+    out = {"optimum": res, "env": repr(env), "energy": args.energy, "max_steps": args.max_steps,
+           "chase_tie": args.chase_tie, "seed": args.seed,
+           "reward_histogram": {f"{v:g}": int(c) for v, c in zip(*np.unique(rewards, return_counts=True))},
+           "command": "python -m eval.dcg optimum " + shlex.join(argv)}
+    tag = hashlib.sha1(out["env"].encode() + f"{args.energy}|{args.max_steps}|{args.chase_tie}|{args.seed}|"
+                       f"{args.episodes}".encode()).hexdigest()[:8]
+    path = os.path.join(args.out, f"optimum_{tag}.json")
+    atomic_write_json(path, out)
+    if args.json:
+        print(json.dumps(out))
+    else:
+        print(f"full-information bound over {args.episodes} games: {res['mean']:.3f} +- {res['se']:.3f} (SE), "
+              f"SD {res['sd']:.3f}; " + ", ".join(f"{k} {v['mean']:.3f}" for k, v in res["per_strategy"].items())
+              + f"; {res['seconds']:.0f} s")
+        print(f"written {path}")
+    return 0
+
+
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "figure":
         return cmd_figure(argv[1:])
     if argv and argv[0] == "render":
         return cmd_render(argv[1:])
+    if argv and argv[0] == "optimum":
+        return cmd_optimum(argv[1:])
     return cmd_evaluate(argv)
 
 
