@@ -26,7 +26,8 @@ def test_every_figure_pair_maps_to_one_experiment():
 def test_select_orders_networks_and_prefers_retrained_ones():
     pool = {"omn_conn": _meta("omn_conn"), "vnn": _meta("vnn"), "emnn": _meta("emnn", alpha=0.001),
             "emnn4": _meta("emnn", alpha=0.0001), "vnn_e10": _meta("vnn", energy=10.0),
-            "vnn_5m": _meta("vnn", steps=5_000_000)}
+            "vnn_5m": _meta("vnn", steps=5_000_000),
+            "a_vnn_area2": dict(_meta("vnn", steps=10_000_000), reward_area=2)}  # sorts first; never a thesis bar
     standard = select(pool, EXPERIMENTS["standard"], None)
     assert [e.label for e in standard] == ["VNN", "EMNN a=0.001", "EMNN a=0.0001", "OMN+CoNN"]
     assert [e.name for e in standard][0] == "vnn"  # not the 5M or energy-10 network
@@ -34,7 +35,7 @@ def test_select_orders_networks_and_prefers_retrained_ones():
     assert at10["VNN"].name == "vnn_e10" and at10["VNN"].note == "" and at10["VNN"].energy == 10.0
     assert at10["OMN+CoNN"].name == "omn_conn" and at10["OMN+CoNN"].note == "trained at energy 15"
     area = select(pool, EXPERIMENTS["area"], 2)
-    assert all(e.reward_area == 2 for e in area)
+    assert all(e.reward_area == 2 for e in area) and "a_vnn_area2" not in {e.name for e in area}
     assert [e.name for e in select(pool, EXPERIMENTS["standard_5m"], None)] == ["vnn_5m"]
     blind = select(pool, EXPERIMENTS["double_blind"], None)
     assert all(e.strategies == DOUBLE_BLIND_STRATEGIES and "not retrained" in e.note for e in blind)

@@ -160,14 +160,18 @@ def test_shipped_parameters_fit_their_network(name):
 
 #: Name suffix of a shipped DCG file trained outside the standard setting -> the metadata it must record.
 VARIANTS = {"_energy10": {"energy": 10.0}, "_energy20": {"energy": 20.0}, "_5m": {"steps": 5_000_000},
-            "_double_blind": {"strategies": ["patrol", "restricted", "double_blind"]}}
+            "_double_blind": {"strategies": ["patrol", "restricted", "double_blind"]},
+            # beyond the thesis: trained on one unit item in the bottom-right S x S reward area (docs/dcg.md)
+            **{f"_area{s}": {"reward_area": s, "total_reward": 1, "steps": 10_000_000} for s in (2, 3, 4)}}
 
 
 def test_shipped_variants_record_the_setting_their_name_says():
-    """The retrained networks of Figs. 5.8/5.9 (energy), 5.16/5.17 (5M steps), 5.18/5.19 (double blind)."""
+    """The retrained networks of Figs. 5.8/5.9 (energy), 5.16/5.17 (5M steps), 5.18/5.19 (double blind), and the
+    one-item networks of the reward-area experiment."""
     from jaxdc import pretrained
 
-    standard = {"energy": 15.0, "steps": 1_000_000, "strategies": ["patrol", "restricted", "with_fog"]}
+    standard = {"energy": 15.0, "steps": 1_000_000, "strategies": ["patrol", "restricted", "with_fog"],
+                "total_reward": 10}
     seen = 0
     for name in pretrained.shipped_names("dcg"):
         suffix = next((s for s in VARIANTS if name.endswith(s)), None)
@@ -181,4 +185,4 @@ def test_shipped_variants_record_the_setting_their_name_says():
         net = make_dcg_net(meta["net"], meta["history"])
         out = net.apply(params, jnp.zeros((1, 5, 5, 2 + meta["history"])))
         assert out[0].shape == (1, 9) and bool(jnp.all(jnp.isfinite(out[0]))), name
-    assert seen >= 16, seen
+    assert seen >= 18, seen

@@ -177,3 +177,17 @@ def test_a_train_dcg_run_folder_plays_like_its_exported_parameters(nets, tmp_pat
     for key in ("reward", "rpe", "steps", "opponent_accuracy", "per_strategy"):
         assert from_run[key] == from_file[key]
     assert from_run["setting"]["trained_steps"] == 64
+
+
+def test_shipped_one_item_network_nears_the_bound_and_beats_the_standard_one():
+    """``omn_conn_area2`` (trained on one item in the 2 x 2 reward area, docs/dcg.md) against the standard
+    OMN+CoNN on that game, both as fractions of the exact full-information bound."""
+    from jaxdc.dcg import learned
+
+    area, standard = (cli.evaluate(learned.shipped(n), episodes=2000, seed=1, reward_area=2)
+                      for n in ("omn_conn_area2", "omn_conn"))
+    a, b = area["reward"], standard["reward"]
+    se = ((a["sd"] ** 2 + b["sd"] ** 2) / 2000) ** 0.5
+    assert a["mean"] - b["mean"] > 4 * se, (a, b)
+    assert area["bound"]["total"] == standard["bound"]["total"] > a["mean"]
+    assert area["fraction_of_bound"] > 0.85, area["fraction_of_bound"]  # 92.1% over 10,000 games

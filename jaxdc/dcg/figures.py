@@ -74,8 +74,11 @@ def _order(meta: dict):
 
 
 def _trained(meta: dict, strategies, energy: float, five_million: bool) -> bool:
+    """Whether ``meta`` describes a network trained as the thesis did: on the standard game (no reward area,
+    which is beyond the thesis), with ``strategies``, at ``energy``, for 1M or 5M steps."""
     steps = meta.get("steps", STEPS_1M)
-    return (tuple(meta.get("strategies", STANDARD_STRATEGIES)) == tuple(strategies)
+    return (meta.get("reward_area") is None
+            and tuple(meta.get("strategies", STANDARD_STRATEGIES)) == tuple(strategies)
             and float(meta.get("energy", 15.0)) == float(energy)
             and (steps >= STEPS_5M) == five_million)
 

@@ -168,8 +168,8 @@ def game_optimum(env, machines: Machines, state) -> GameOptimum:
 def sampled_bound(env, params, key, episodes: int, progress: bool = False) -> dict:
     """The full-information bound on the expected episode reward, estimated over ``episodes`` games.
 
-    The games are drawn by ``env.reset_env`` from ``key`` (the same draws as
-    any evaluation with that key). Returns ``{"mean", "se", "sd",
+    Game ``i`` is ``env.reset_env(jax.random.split(key, episodes)[i], params)``.
+    Returns ``{"mean", "se", "sd",
     "per_strategy": {name: {"mean", "se", "episodes"}}, "episodes",
     "item_cells_mean", "seconds", "rewards"}`` where ``rewards`` is the
     ``[episodes]`` array of per-game optima.
