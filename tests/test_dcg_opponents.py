@@ -1,7 +1,5 @@
 """The opponent strategies of the DCG (sections 5.5.1, 5.5.7) on hand-made states, and the registry."""
 
-import itertools
-
 import jax
 import jax.numpy as jnp
 import numpy as np
