@@ -439,11 +439,12 @@ def make_train(config: A2CConfig, env, env_params, net, heuristics: Callable | N
         def epoch(carry, k):
             perm = jax.random.permutation(k, config.batch_size)
             parts = jax.tree_util.tree_map(lambda x: x[perm].reshape((config.minibatches, -1) + x.shape[1:]), batch)
-            return jax.lax.scan(adam_step, carry, parts)
+            return jax.lax.scan(adam_step, carry, parts, unroll=True)
 
+        # unrolled: on XLA's CPU backend a convolution inside a scan's loop body runs many times slower
         key, k_perm = jax.random.split(key)
         (params, opt_state), metrics = jax.lax.scan(epoch, (params, opt_state),
-                                                    jax.random.split(k_perm, config.epochs))
+                                                    jax.random.split(k_perm, config.epochs), unroll=True)
         return params, opt_state, key, jax.tree_util.tree_map(jnp.mean, metrics)
 
     def update(ts: TrainState):
