@@ -29,6 +29,7 @@ import csv
 import hashlib
 import io
 import json
+import math
 import os
 import shlex
 import sys
@@ -579,6 +580,8 @@ def cmd_render(argv) -> int:
 def cmd_optimum(argv) -> int:
     parser = optimum_parser()
     args = parser.parse_args(argv)
+    if not (math.isinf(args.energy) or args.energy == math.floor(args.energy)):
+        parser.error(f"--energy must be a whole number or inf for the exact bound, got {args.energy:g}")
     try:
         import jax
         import numpy as np

@@ -146,4 +146,4 @@ def test_cli(tmp_path, capsys):
     assert len(written) == 1 and json.loads(written[0].read_text())["optimum"] == out["optimum"]
     with pytest.raises(SystemExit) as e:
         cli.main(["optimum", "--energy", "2.5", "--episodes", "2", "--out", str(tmp_path)])
-    assert e.value.code == 2 and "max_energy" in capsys.readouterr().err
+    assert e.value.code == 2 and "--energy must be a whole number" in capsys.readouterr().err

@@ -42,7 +42,7 @@ SHIPPED = {
 #: 4.8's setting, ``jaxdc/dcp/optimal.py``); the thesis reuses the Table 4.3 ENN there, this one is trained on
 #: the single-item setting itself and evaluated greedily (``eval.dcp --greedy``). ``enn_mix``: one ENN at the
 #: thesis' 1M steps for Tables 4.3, 4.6 and 4.8, trained on episodes of 1..30 units (``--min-total-reward 1``)
-#: with Adam at 3e-4 (docs/learning.md, "One ENN for Tables 4.3, 4.6 and 4.8 at 1M steps").
+#: with Adam at 3e-4 (docs/learning.md, "At the thesis' 1M steps").
 BEYOND = {
     "enn_long": ("4.3 (beyond the thesis: 16M steps)",
                  ["--net", "enn", "--risk", "high", "--energy", "8", "16",

@@ -26,7 +26,8 @@ exact expectation. With one item it agrees with :func:`jaxdc.dcg.optimal.solve`.
 
 The search is exponential in the number of distinct item cells ``d`` (``2^d``
 item subsets): the standard game's 10 units fall on about 8.4 cells on
-average, at most ``MAX_ITEM_CELLS``.
+average; a game whose search space exceeds ``MAX_SEARCH_STATES`` raises
+``ValueError``.
 """
 
 from __future__ import annotations
@@ -40,8 +41,9 @@ import numpy as np
 
 from jaxdc.dcg import optimal
 
-#: The most distinct item cells a game may have (``2^d`` subsets are searched).
-MAX_ITEM_CELLS = 14
+#: The largest search space accepted: ``2^d`` item subsets x cells x energy levels x opponent classes
+#: (about 0.4 GB of search arrays at the limit). The standard 5 x 5 game needs at most 2^10 x 25 x 15 x 25.
+MAX_SEARCH_STATES = 2**26
 
 
 class Machines(NamedTuple):
@@ -96,8 +98,6 @@ def game_optimum(env, machines: Machines, state) -> GameOptimum:
     items = np.asarray(state.items, np.float64).reshape(-1)
     cells = np.flatnonzero(items > 0)
     d = cells.size
-    if d > MAX_ITEM_CELLS:
-        raise ValueError(f"the game has {d} item cells; at most MAX_ITEM_CELLS = {MAX_ITEM_CELLS} are supported")
     s = int(state.strategy)
     b = int(machines.init[s][_flat(state.opponent.home, n), _flat(state.opponent.target, n)])
     if b < 0:
@@ -105,17 +105,21 @@ def game_optimum(env, machines: Machines, state) -> GameOptimum:
     nxt, opos = optimal._local_machines(machines.next[s], machines.pos[s], np.array([b]))
     nxt, opos = nxt[0], opos[0]  # [L, C], [L]; local state 0 is the reset state
 
+    energy, max_steps = machines.energy, machines.max_steps
+    levels = 1 if math.isinf(energy) else int(energy)
+    shape = (2**d, c, levels, nxt.shape[0])
+    size = math.prod(shape)
+    if size > MAX_SEARCH_STATES:
+        raise ValueError(f"the game has {d} item cells: its search needs {size:,} states (2^{d} x {c} cells x "
+                         f"{levels} energy levels x {nxt.shape[0]} opponent states), more than MAX_SEARCH_STATES = "
+                         f"{MAX_SEARCH_STATES:,}; use fewer units (total_reward) or less energy")
     bit_of = np.full(c, -1, np.int64)
     bit_of[cells] = np.arange(d)
     masks = np.arange(2**d)
     value = ((masks[:, None] >> np.arange(d)) & 1) @ items[cells]  # reward of each collected subset
     full = 2**d - 1
     succ = optimal._successors(n)
-    energy, max_steps = machines.energy, machines.max_steps
-    levels = 1 if math.isinf(energy) else int(energy)
-    shape = (2**d, c, levels, nxt.shape[0])
-    size = int(np.prod(shape))
-    parent = np.full(size, -1, np.int64)
+    parent = np.full(size, -1, np.int32)
     action = np.zeros(size, np.int8)
     seen = np.zeros(size, bool)
     frontier = np.array([np.ravel_multi_index((0, 0, levels - 1, 0), shape)])
