@@ -5,7 +5,7 @@ Usage::
     python benchmarks/train_throughput.py [--json] [--envs 16 64 256] [--nets enn cnn]
                                           [--layouts loop scan] [--scan-envs 16] [--chunk-steps N]
                                           [--sb3-chunk-steps N] [--sb3-vec-envs dummy jaxvec] [--repeats R]
-                                          [--no-sb3] [--no-dcg] [--quick]
+                                          [--ppo-envs 32] [--no-sb3] [--no-dcg] [--quick]
 
 What is timed, all in one invocation so that the ratios are taken side by side on the
 same (noisy, shared) machine:
@@ -25,6 +25,9 @@ same (noisy, shared) machine:
   effect: with torch's default threads, and with ``OMP_NUM_THREADS=1`` plus
   ``torch.set_num_threads(1)``. The same subprocess also times the ``DummyVecEnv`` alone
   under random actions (``env_only``), the share of SB3's time spent in the environment;
+* ``jaxdc enn ppo``: the PPO-style option of ``train.dcp`` (:data:`PPO_OPTIONS`, the options of
+  docs/learning.md's "The PPO-style option at 1M steps": 4 epochs x 4 shuffled minibatches of
+  each rollout, clipping 0.2, GAE 0.95), ``loop`` layout, at each ``--ppo-envs`` (default 32);
 * ``dcg omn_conn`` (when :mod:`jaxdc.nets` has it): OMN + CoNN (section 5.4.5) with A2C and
   the auxiliary cross-entropy on the DCG of section 5.5.1, 16 environments, ``loop``.
 
@@ -79,6 +82,9 @@ TARGET_ENN_1M_S = 180.0
 TARGET_VS_SB3_FASTEST = 2.0
 TARGET_VS_SB3_DEFAULT = 8.0
 TARGET_DCG_1M_S = 300.0
+#: The PPO-style options of ``train.dcp`` timed by the ``jaxdc enn ppo`` rows (docs/learning.md).
+PPO_OPTIONS = {"lr": 3e-4, "clip_eps": 0.2, "epochs": 4, "minibatches": 4, "gae_lambda": 0.95,
+               "normalize_advantages": True, "reset_slots": 4}
 
 
 def log(msg: str) -> None:
@@ -109,14 +115,15 @@ def measured_gflops(size: int = 1024, repeats: int = 5) -> float:
 
 
 # -- jaxdc -----------------------------------------------------------------------------------
-def make_trainer(net_name: str, num_envs: int, game: str = "dcp", total_steps: int = 1 << 30):
+def make_trainer(net_name: str, num_envs: int, game: str = "dcp", total_steps: int = 1 << 30, options=None):
     """A2C :class:`~jaxdc.agents.a2c.Trainer` of ``net_name`` on the benchmark env (``t_max`` 32).
 
     ``total_steps`` only sets the learning-rate schedule; it is large so that the timed updates
-    run at a nonzero rate.
+    run at a nonzero rate. ``options``: further :class:`~jaxdc.agents.a2c.A2CConfig` fields
+    (e.g. :data:`PPO_OPTIONS`).
     """
     env, params = make_env(game)
-    config = a2c.A2CConfig(total_steps=total_steps, num_envs=num_envs, t_max=T_MAX)
+    config = a2c.A2CConfig(total_steps=total_steps, num_envs=num_envs, t_max=T_MAX, **(options or {}))
     if game == "dcg":
         from jaxdc.nets import make_dcg_net
 
@@ -127,9 +134,10 @@ def make_trainer(net_name: str, num_envs: int, game: str = "dcp", total_steps: i
 
 
 def bench_jax(net_name: str, num_envs: int, layout: str, chunk_steps: int, repeats: int, seed: int = 0,
-              game: str = "dcp") -> dict:
-    """env-steps/s of ``layout`` ('loop' or 'scan') training; the first call (compile) is untimed."""
-    trainer = make_trainer(net_name, num_envs, game)
+              game: str = "dcp", ppo: bool = False) -> dict:
+    """env-steps/s of ``layout`` ('loop' or 'scan') training; the first call (compile) is untimed.
+    ``ppo``: with :data:`PPO_OPTIONS` (row ``jaxdc NET ppo``)."""
+    trainer = make_trainer(net_name, num_envs, game, options=PPO_OPTIONS if ppo else None)
     batch = trainer.config.batch_size
     n = max(1, math.ceil(chunk_steps / batch))
 
@@ -158,7 +166,8 @@ def bench_jax(net_name: str, num_envs: int, layout: str, chunk_steps: int, repea
         compile_s = max(first - best / n, 0.0)
     else:
         compile_s = max(first - best, 0.0)
-    return {"impl": f"jaxdc {net_name}" if game == "dcp" else f"jaxdc dcg {net_name}", "layout": layout,
+    impl = f"jaxdc {net_name}" if game == "dcp" else f"jaxdc dcg {net_name}"
+    return {"impl": impl + (" ppo" if ppo else ""), "layout": layout,
             "threads": "xla", "num_envs": num_envs, "env_steps": n * batch, "seconds": best,
             "compile_s": compile_s, "steps_per_s": n * batch / best, "cpu_s": cpu, "steps_per_cpu_s": n * batch / cpu}
 
@@ -345,6 +354,11 @@ def run(args) -> dict:
                     f"(env alone {row['env_only_steps_per_s']:,.0f})")
                 rows.append(row)
                 _save_partial(args.out_dir, rows)
+    for b in args.ppo_envs:
+        row = bench_jax("enn", b, "loop", args.chunk_steps, repeats, ppo=True)
+        log(f"{row['impl']:>14} loop envs={b:<4} {row['steps_per_s']:>10,.0f} steps/s (compile {row['compile_s']:.1f} s)")
+        rows.append(row)
+        _save_partial(args.out_dir, rows)
     dcg = None
     if args.dcg:
         try:
@@ -364,6 +378,7 @@ def run(args) -> dict:
     result = {
         "benchmark": "train_throughput",
         "config": {**GYM_KWARGS, "energy": list(GYM_KWARGS["energy"]), "t_max": T_MAX, "repeats": repeats,
+                   "ppo_options": PPO_OPTIONS,
                    "chunk_steps": args.chunk_steps, "sb3_chunk_steps": args.sb3_chunk_steps},
         "machine": {"jax": jax.__version__, "backend": jax.default_backend(), "cpu_count": os.cpu_count(),
                     "python": platform.python_version(), "platform": platform.platform(),
@@ -499,16 +514,21 @@ def parse_args(argv=None):
                    help="SB3's vectorized env: dummy (make_vec_env, per-env calls), jaxvec (one batched call)")
     p.add_argument("--repeats", type=int, default=2, help="timed chunks per row, best taken")
     p.add_argument("--cpu-gflops", type=float, default=70.0, help="assumed CPU FLOP rate for the ceiling")
+    p.add_argument("--ppo-envs", type=int, nargs="*", default=None,
+                   help="numbers of environments of the PPO-style ENN rows (default 32; none given: no PPO row)")
     p.add_argument("--no-sb3", dest="sb3", action="store_false", help="skip Stable-Baselines3")
     p.add_argument("--no-dcg", dest="dcg", action="store_false", help="skip the DCG OMN+CoNN row")
     p.add_argument("--quick", action="store_true",
-                   help="tiny settings for smoke tests: 1 repeat, chunks of one update, no DCG row")
+                   help="tiny settings for smoke tests: 1 repeat, chunks of one update, no DCG row, "
+                        "no PPO row unless --ppo-envs is given")
     p.add_argument("--out-dir", type=Path, default=RESULTS_DIR)
     p.add_argument("--_sb3-child", dest="sb3_child", choices=THREADS, default=None, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
-    for name in ("envs",):
+    if args.ppo_envs is None:
+        args.ppo_envs = [] if args.quick else [32]
+    for name in ("envs", "ppo_envs"):
         if any(v < 1 for v in getattr(args, name)):
-            p.error(f"--{name} must all be >= 1, got {getattr(args, name)}")
+            p.error(f"--{name.replace('_', '-')} must all be >= 1, got {getattr(args, name)}")
     for name in ("chunk_steps", "sb3_chunk_steps", "repeats"):
         if getattr(args, name) < 1:
             p.error(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")

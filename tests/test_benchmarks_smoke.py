@@ -155,6 +155,21 @@ def test_train_throughput_quick(tmp_path, capsys):
     assert not list(tmp_path.glob(".tmp-*")) and not (tmp_path / "train_throughput.partial.json").exists()
 
 
+def test_train_throughput_ppo_row(tmp_path, capsys):
+    """The PPO-style row: the options of docs/learning.md (4 x 4 Adam steps per update), only when asked for in --quick."""
+    from benchmarks import train_throughput as tt
+
+    assert tt.parse_args(["--quick"]).ppo_envs == [] and tt.parse_args([]).ppo_envs == [32]
+    assert tt.parse_args(["--ppo-envs"]).ppo_envs == []
+    assert tt.make_trainer("enn", 2, options=tt.PPO_OPTIONS).config.steps_per_update == 16
+    result = tt.main(["--quick", "--envs", "2", "--nets", "cnn", "--layouts", "loop", "--no-sb3", "--ppo-envs", "2",
+                      "--out-dir", str(tmp_path)])
+    capsys.readouterr()
+    assert [(r["impl"], r["num_envs"]) for r in result["rows"]] == [("jaxdc cnn", 2), ("jaxdc enn ppo", 2)]
+    assert result["rows"][1]["env_steps"] == 2 * tt.T_MAX and result["config"]["ppo_options"]["epochs"] == 4
+    assert "| jaxdc enn ppo | loop |" in (tmp_path / "train_throughput.md").read_text()
+
+
 def test_train_throughput_flops_and_ratios():
     from benchmarks import train_throughput as tt
 
@@ -181,7 +196,7 @@ def test_train_throughput_flops_and_ratios():
 def test_train_throughput_bad_input():
     from benchmarks import train_throughput as tt
 
-    for argv in (["--envs", "0"], ["--repeats", "0"], ["--cpu-gflops", "-1"], ["--nets", "eqn"]):
+    for argv in (["--envs", "0"], ["--repeats", "0"], ["--cpu-gflops", "-1"], ["--nets", "eqn"], ["--ppo-envs", "0"]):
         with pytest.raises(SystemExit):
             tt.parse_args(argv)
 
