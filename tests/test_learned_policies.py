@@ -175,3 +175,30 @@ def test_shipped_enn_mix_records_its_mix_and_plays_one_item_better_than_enn():
     a, b = (summarize(evaluate_learned(env, params, x, key, n))["reward"] for x in (mix, plain))
     se = math.sqrt((a["sd"] ** 2 + b["sd"] ** 2) / n)
     assert a["mean"] - b["mean"] > 4 * se, (a, b)
+
+
+PPO = {"enn_ppo": ("high", [8.0, 16.0]), "enn_ppo_low": ("low", [8.0, 16.0]),
+       "enn_ppo_energy16_32": ("high", [16.0, 32.0]), "enn_ppo_mix": ("high", [8.0, 16.0])}
+
+
+@pytest.mark.parametrize("name", sorted(PPO))
+def test_shipped_ppo_networks_record_their_options_and_setting(name):
+    """The PPO-style networks (train.ship's ``enn_ppo*``): the options of docs/learning.md, the table's setting."""
+    meta = learned_lib.load(pretrained.shipped("dcp", name)).metadata
+    algo = meta["algorithm"]
+    assert (algo["clip_eps"], algo["epochs"], algo["minibatches"], algo["gae_lambda"]) == (0.2, 4, 4, 0.95)
+    assert algo["normalize_advantages"] and algo["num_envs"] == 32 and algo["lr"] == 3e-4
+    assert "--clip-eps 0.2" in meta["command"] and meta["seed"] == 0 and meta["steps"] >= 999_000
+    assert (meta["risk"], meta["energy"]) == PPO[name]
+    assert (meta.get("min_total_reward") == 1) == name.endswith("_mix")
+
+
+def test_shipped_enn_ppo_beats_the_faithful_enn_in_table_4_3():
+    """Docs: at 1M steps the PPO-style ENN collects 14.20 in Table 4.3, the faithful one 12.88."""
+    ppo, plain = (learned_lib.load(pretrained.shipped("dcp", n)) for n in ("enn_ppo", "enn"))
+    env = DCP(grid_size=8, total_reward=30)
+    params = env.make_params("high", (8.0, 16.0), 1000)
+    n, key = 2000, jax.random.PRNGKey(0)
+    a, b = (summarize(evaluate_learned(env, params, x, key, n))["reward"] for x in (ppo, plain))
+    se = math.sqrt((a["sd"] ** 2 + b["sd"] ** 2) / n)
+    assert a["mean"] - b["mean"] > 4 * se, (a, b)

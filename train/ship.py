@@ -6,6 +6,7 @@
     python -m train.ship --only enn_single_item   # the single-item ENN (beyond the thesis, 4M steps)
     python -m train.ship --only enn_long          # Table 4.3's ENN trained 16M steps (beyond the thesis)
     python -m train.ship --only enn_mix           # one 1M-step ENN for Tables 4.3, 4.6, 4.8 (beyond the thesis)
+    python -m train.ship --only enn_ppo enn_ppo_low enn_ppo_energy16_32 enn_ppo_mix   # the PPO-style option, 1M steps
 
 Each shipped network is trained with the defaults of ``python -m train.dcp``
 (the thesis' hyper-parameters, section 4.5), seed 0, 1M steps, in the
@@ -54,6 +55,21 @@ BEYOND = {
                 ["--net", "enn", "--risk", "high", "--energy", "8", "16", "--min-total-reward", "1", "--lr", "3e-4",
                  "--eval-episodes", "2000"]),
 }
+#: The PPO-style option of ``train.dcp`` (docs/learning.md, "The PPO-style option at 1M steps"), the same
+#: options for every table: the best learners at the thesis' 1M steps.
+PPO = ["--envs", "32", "--t-max", "32", "--lr", "3e-4", "--clip-eps", "0.2", "--epochs", "4", "--minibatches", "4",
+       "--gae-lambda", "0.95", "--normalize-advantages", "--reset-slots", "4",
+       "--eval-every", "1000000", "--eval-episodes", "4000"]
+BEYOND.update({
+    "enn_ppo": ("4.3, 4.6 (beyond the thesis: the PPO-style option)",
+                ["--net", "enn", "--risk", "high", "--energy", "8", "16", *PPO]),
+    "enn_ppo_low": ("4.5 (beyond the thesis: the PPO-style option)",
+                    ["--net", "enn", "--risk", "low", "--energy", "8", "16", *PPO]),
+    "enn_ppo_energy16_32": ("4.7 (beyond the thesis: the PPO-style option)",
+                            ["--net", "enn", "--risk", "high", "--energy", "16", "32", *PPO]),
+    "enn_ppo_mix": ("4.3, 4.6, 4.8 (beyond the thesis: the PPO-style option, 1..30 units per training episode)",
+                    ["--net", "enn", "--risk", "high", "--energy", "8", "16", "--min-total-reward", "1", *PPO]),
+})
 ALL = {**SHIPPED, **BEYOND}
 
 
