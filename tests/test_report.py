@@ -76,3 +76,13 @@ def test_report_says_what_to_run_for_missing_sections(tmp_path):
     out = tmp_path / "r.md"
     assert report.main(["--results", str(res), "--out", str(out), "--notes", "none"]) == 0
     assert "No results yet: run `python -m eval.dcg figure all`" in out.read_text()
+
+
+def test_the_notes_on_the_results_page_are_the_notes_file():
+    """docs/results.md is hand-edited between regenerations; its notes must stay those of docs/results_notes.md,
+    which ``eval.report`` inserts, so that a regeneration keeps them."""
+    import pathlib
+
+    docs = pathlib.Path(__file__).resolve().parents[1] / "docs"
+    notes = (docs / "results_notes.md").read_text().strip()
+    assert notes.startswith("## ") and notes in (docs / "results.md").read_text()
