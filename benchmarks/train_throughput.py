@@ -25,7 +25,7 @@ same (noisy, shared) machine:
   effect: with torch's default threads, and with ``OMP_NUM_THREADS=1`` plus
   ``torch.set_num_threads(1)``. The same subprocess also times the ``DummyVecEnv`` alone
   under random actions (``env_only``), the share of SB3's time spent in the environment;
-* ``jaxdc enn ppo``: the PPO-style option of ``train.dcp`` (:data:`PPO_OPTIONS`, the options of
+* ``jaxdc enn ppo``: the PPO-style option of ``train.dcp`` (:func:`ppo_options`, the options of
   docs/learning.md's "The PPO-style option at 1M steps": 4 epochs x 4 shuffled minibatches of
   each rollout, clipping 0.2, GAE 0.95), ``loop`` layout, at each ``--ppo-envs`` (default 32);
 * ``dcg omn_conn`` (when :mod:`jaxdc.nets` has it): OMN + CoNN (section 5.4.5) with A2C and
@@ -82,9 +82,18 @@ TARGET_ENN_1M_S = 180.0
 TARGET_VS_SB3_FASTEST = 2.0
 TARGET_VS_SB3_DEFAULT = 8.0
 TARGET_DCG_1M_S = 300.0
-#: The PPO-style options of ``train.dcp`` timed by the ``jaxdc enn ppo`` rows (docs/learning.md).
-PPO_OPTIONS = {"lr": 3e-4, "clip_eps": 0.2, "epochs": 4, "minibatches": 4, "gae_lambda": 0.95,
-               "normalize_advantages": True, "reset_slots": 4}
+
+
+def ppo_options() -> dict:
+    """The :class:`~jaxdc.agents.a2c.A2CConfig` fields of the PPO-style option, as ``train.ship.PPO`` passes them
+    to ``train.dcp`` (docs/learning.md); the ``jaxdc enn ppo`` rows time them (``num_envs`` from ``--ppo-envs``)."""
+    from train.dcp import build_parser
+    from train.ship import PPO
+
+    a = build_parser().parse_args(PPO)
+    assert a.t_max == T_MAX, (a.t_max, T_MAX)
+    return {"lr": a.lr, "clip_eps": a.clip_eps, "epochs": a.epochs, "minibatches": a.minibatches,
+            "gae_lambda": a.gae_lambda, "normalize_advantages": a.normalize_advantages, "reset_slots": a.reset_slots}
 
 
 def log(msg: str) -> None:
@@ -120,7 +129,7 @@ def make_trainer(net_name: str, num_envs: int, game: str = "dcp", total_steps: i
 
     ``total_steps`` only sets the learning-rate schedule; it is large so that the timed updates
     run at a nonzero rate. ``options``: further :class:`~jaxdc.agents.a2c.A2CConfig` fields
-    (e.g. :data:`PPO_OPTIONS`).
+    (e.g. :func:`ppo_options`).
     """
     env, params = make_env(game)
     config = a2c.A2CConfig(total_steps=total_steps, num_envs=num_envs, t_max=T_MAX, **(options or {}))
@@ -136,8 +145,8 @@ def make_trainer(net_name: str, num_envs: int, game: str = "dcp", total_steps: i
 def bench_jax(net_name: str, num_envs: int, layout: str, chunk_steps: int, repeats: int, seed: int = 0,
               game: str = "dcp", ppo: bool = False) -> dict:
     """env-steps/s of ``layout`` ('loop' or 'scan') training; the first call (compile) is untimed.
-    ``ppo``: with :data:`PPO_OPTIONS` (row ``jaxdc NET ppo``)."""
-    trainer = make_trainer(net_name, num_envs, game, options=PPO_OPTIONS if ppo else None)
+    ``ppo``: with :func:`ppo_options` (row ``jaxdc NET ppo``)."""
+    trainer = make_trainer(net_name, num_envs, game, options=ppo_options() if ppo else None)
     batch = trainer.config.batch_size
     n = max(1, math.ceil(chunk_steps / batch))
 
@@ -378,7 +387,7 @@ def run(args) -> dict:
     result = {
         "benchmark": "train_throughput",
         "config": {**GYM_KWARGS, "energy": list(GYM_KWARGS["energy"]), "t_max": T_MAX, "repeats": repeats,
-                   "ppo_options": PPO_OPTIONS,
+                   "ppo_options": ppo_options(),
                    "chunk_steps": args.chunk_steps, "sb3_chunk_steps": args.sb3_chunk_steps},
         "machine": {"jax": jax.__version__, "backend": jax.default_backend(), "cpu_count": os.cpu_count(),
                     "python": platform.python_version(), "platform": platform.platform(),

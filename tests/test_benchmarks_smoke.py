@@ -161,12 +161,14 @@ def test_train_throughput_ppo_row(tmp_path, capsys):
 
     assert tt.parse_args(["--quick"]).ppo_envs == [] and tt.parse_args([]).ppo_envs == [32]
     assert tt.parse_args(["--ppo-envs"]).ppo_envs == []
-    assert tt.make_trainer("enn", 2, options=tt.PPO_OPTIONS).config.steps_per_update == 16
+    assert tt.make_trainer("enn", 2, options=tt.ppo_options()).config.steps_per_update == 16
     result = tt.main(["--quick", "--envs", "2", "--nets", "cnn", "--layouts", "loop", "--no-sb3", "--ppo-envs", "2",
                       "--out-dir", str(tmp_path)])
     capsys.readouterr()
     assert [(r["impl"], r["num_envs"]) for r in result["rows"]] == [("jaxdc cnn", 2), ("jaxdc enn ppo", 2)]
-    assert result["rows"][1]["env_steps"] == 2 * tt.T_MAX and result["config"]["ppo_options"]["epochs"] == 4
+    assert result["rows"][1]["env_steps"] == 2 * tt.T_MAX and result["config"]["ppo_options"] == {
+        "lr": 3e-4, "clip_eps": 0.2, "epochs": 4, "minibatches": 4, "gae_lambda": 0.95, "normalize_advantages": True,
+        "reset_slots": 4}
     assert "| jaxdc enn ppo | loop |" in (tmp_path / "train_throughput.md").read_text()
 
 
