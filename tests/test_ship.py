@@ -35,3 +35,12 @@ def test_bad_steps_is_a_usage_error_naming_the_flag(capsys):
     with pytest.raises(SystemExit) as e:
         ship.main(["--steps", "0", "--only", "enn"])
     assert e.value.code == 2 and "--steps must be an integer >= 1, got 0" in capsys.readouterr().err
+
+
+def test_every_shipped_file_records_the_command_its_entry_gives():
+    """The ``command`` in each shipped .json is what ``train.ship`` would run for it (entries and files agree)."""
+    from jaxdc import pretrained
+
+    for name in ship.ALL:
+        recorded = pretrained.read_metadata(pretrained.shipped("dcp", name))["command"]
+        assert recorded == " ".join(ship.train_command(name, 1_000_000, 0, "runs/ship")), name

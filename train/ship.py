@@ -60,15 +60,12 @@ BEYOND = {
 PPO = ["--envs", "32", "--t-max", "32", "--lr", "3e-4", "--clip-eps", "0.2", "--epochs", "4", "--minibatches", "4",
        "--gae-lambda", "0.95", "--normalize-advantages", "--reset-slots", "4",
        "--eval-every", "1000000", "--eval-episodes", "4000"]
-BEYOND.update({
-    "enn_ppo": ("4.3, 4.6 (beyond the thesis: the PPO-style option)",
-                ["--net", "enn", "--risk", "high", "--energy", "8", "16", *PPO]),
-    "enn_ppo_low": ("4.5 (beyond the thesis: the PPO-style option)",
-                    ["--net", "enn", "--risk", "low", "--energy", "8", "16", *PPO]),
-    "enn_ppo_energy16_32": ("4.7 (beyond the thesis: the PPO-style option)",
-                            ["--net", "enn", "--risk", "high", "--energy", "16", "32", *PPO]),
+BEYOND.update({  # the setting of the faithful ENN of the same tables, then the PPO options
+    "enn_ppo": ("4.3, 4.6 (beyond the thesis: the PPO-style option)", [*SHIPPED["enn"][1], *PPO]),
+    "enn_ppo_low": ("4.5 (beyond the thesis: the PPO-style option)", [*SHIPPED["enn_low"][1], *PPO]),
+    "enn_ppo_energy16_32": ("4.7 (beyond the thesis: the PPO-style option)", [*SHIPPED["enn_energy16_32"][1], *PPO]),
     "enn_ppo_mix": ("4.3, 4.6, 4.8 (beyond the thesis: the PPO-style option, 1..30 units per training episode)",
-                    ["--net", "enn", "--risk", "high", "--energy", "8", "16", "--min-total-reward", "1", *PPO]),
+                    [*SHIPPED["enn"][1], "--min-total-reward", "1", *PPO]),
 })
 ALL = {**SHIPPED, **BEYOND}
 
