@@ -60,3 +60,33 @@ def integer(name: str, low: int | None = None):
 def positive_int(name: str):
     """argparse type: an int >= 1."""
     return integer(name, low=1)
+
+
+def unit_interval(name: str, open_interval: bool = False):
+    """argparse type: a float in [0, 1] (in (0, 1) when ``open_interval``)."""
+    span = "(0, 1)" if open_interval else "[0, 1]"
+
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number in {span}, got {text!r}") from None
+        if not (0 < v < 1 if open_interval else 0 <= v <= 1):
+            raise argparse.ArgumentTypeError(f"{name} must be in {span}, got {text!r}")
+        return v
+
+    return parse
+
+
+def seed_list(name: str):
+    """argparse type: distinct comma-separated ints, e.g. ``0,1,2``."""
+    def parse(text):
+        try:
+            seeds = [int(x) for x in text.split(",")]
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be comma-separated ints, e.g. 0,1,2, got {text!r}") from None
+        if len(set(seeds)) != len(seeds):
+            raise argparse.ArgumentTypeError(f"{name} must be distinct, got {text!r}")
+        return seeds
+
+    return parse

@@ -140,3 +140,25 @@ def test_bad_arguments(capsys, tmp_path, extra, match):
 def test_resume_refuses_another_net(finished_run, capsys):
     _fails(capsys, TINY + ["--out", finished_run, "--resume", "--net", "imnn"], "net: checkpoint has 'vnn'")
     _fails(capsys, TINY + ["--out", finished_run], "already holds checkpoints")
+
+
+def test_seeds_run_vmapped_and_seed_0_equals_the_single_run(finished_run, tmp_path):
+    """--seeds 0,3 (train.common's flag, as in train.dcp): one vmapped run whose seed 0 equals the single run of
+    seed 0, one CSV per seed, and the PPO-style learner options accepted on the same run."""
+    out = str(tmp_path / "seeds")
+    assert cli.main(TINY + ["--out", out, "--seeds", "0,3"]) == 0
+    run = cli.Run(cli.build_parser().parse_args(TINY + ["--out", out, "--seeds", "0,3"]))
+    multi, _ = checkpoint.restore(run.ckpt_dir, run.trainer.init(run.init_key()), run.metadata)
+    single = _restore(finished_run)
+    for x, y in zip(jax.tree_util.tree_leaves(single.params), jax.tree_util.tree_leaves(multi.params)):
+        np.testing.assert_allclose(np.asarray(x), np.asarray(y)[0], rtol=1e-4, atol=1e-5)
+    assert not np.allclose(*np.asarray(jax.tree_util.tree_leaves(multi.params)[0]))
+    for seed in (0, 3):
+        with open(os.path.join(out, f"metrics-s{seed}.csv")) as f:
+            assert [int(r["env_steps"]) for r in csv.DictReader(f)] == [9600, 19200]
+    assert run.metadata["seeds"] == [0, 3] and "seed" not in run.metadata
+
+
+def test_ship_refuses_several_seeds(capsys, tmp_path):
+    _fails(capsys, TINY + ["--out", str(tmp_path / "x"), "--seeds", "0,1", "--ship", str(tmp_path / "n.msgpack")],
+           "--ship writes one network")

@@ -13,6 +13,7 @@ import pytest
 
 from jaxdc import checkpoint
 from jaxdc.agents import a2c
+from train import common
 from train import dcp as cli
 
 # 128 updates of 4 envs x 8 steps on a 4x4 grid; evaluations/checkpoints at updates 64 and 128.
@@ -144,7 +145,7 @@ def test_learner_options_reach_the_config_and_faithful_metadata_is_unchanged(tmp
         0.2, 2, 4, 0.95, True, 2)
     assert run.metadata["algorithm"]["clip_eps"] == 0.2
     plain = cli.Run(cli.build_parser().parse_args(TINY + ["--out", str(tmp_path / "plain")]))
-    assert not set(cli.LEARNER_OPTIONS) & set(plain.metadata["algorithm"])  # as before the options existed
+    assert not set(common.LEARNER_OPTIONS) & set(plain.metadata["algorithm"])  # as before the options existed
 
 
 def _tb_scalars(folder):

@@ -1,20 +1,24 @@
-"""Pieces shared by the training command lines (``train.dcg``; ``train.dcp`` can move onto them).
+"""Pieces shared by the training command lines ``train.dcp`` and ``train.dcg``.
 
-* argument parsing: :func:`positive`, :func:`nonnegative_float` and
-  :func:`add_a2c_arguments` (the A2C hyperparameters of section 4.5 / 5.5.2
-  and the run-control flags);
+* argument parsing: :func:`add_a2c_arguments` (the A2C hyperparameters of
+  section 4.5 / 5.5.2, the learner options beside Algorithm 10, several seeds,
+  devices, and the run-control flags), and :func:`a2c_settings`, which turns
+  them into :class:`~jaxdc.agents.a2c.A2CConfig` keyword arguments. Each flag's
+  default is the ``A2CConfig`` field it sets, so the two cannot drift apart;
 * the metrics CSV: :func:`read_rows`, :func:`write_rows` (atomic);
 * :class:`TrainingRun`: the loop of a run -- a progress bar, an evaluation
   row and an orbax checkpoint every ``--eval-every`` steps, exact
   ``--resume`` from the latest checkpoint, and a stop (status ``"nan"``,
   before any checkpoint) when the loss is not finite. A subclass builds the
-  trainer and says how to evaluate.
+  trainer (:meth:`TrainingRun.parallel_trainer` spreads it over the devices
+  and the seeds) and says how to evaluate.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import io
 import os
 import sys
@@ -25,8 +29,9 @@ import jax
 import numpy as np
 
 from jaxdc import checkpoint
+from jaxdc.agents import parallel
 from jaxdc.agents.a2c import A2CConfig, lr_schedule
-from jaxdc.cli import nonnegative_float, positive_float, positive_int
+from jaxdc.cli import nonnegative_float, positive_float, positive_int, seed_list, unit_interval
 from jaxdc.io import atomic_write, atomic_write_json
 
 #: Exit status of a run stopped by a NaN loss.
@@ -35,19 +40,53 @@ EXIT_NAN = 3
 LAYOUTS = ("loop", "scan")
 
 
+#: ``A2CConfig`` field -> the attribute of the parsed arguments that sets it (the flag is its dashed form).
+A2C_FLAGS = {"total_steps": "steps", "num_envs": "envs", "t_max": "t_max", "lr": "lr", "gamma": "gamma",
+             "entropy_coef": "entropy", "value_coef": "value_coef", "max_grad_norm": "max_grad_norm",
+             "reset_slots": "reset_slots", "gae_lambda": "gae_lambda", "clip_eps": "clip_eps",
+             "epochs": "epochs", "minibatches": "minibatches", "normalize_advantages": "normalize_advantages"}
+#: The learner options beside Algorithm 10 (not in the thesis; docs/learning.md) and their faithful defaults.
+LEARNER_OPTIONS = {f.name: f.default for f in dataclasses.fields(A2CConfig)
+                   if f.name in ("gae_lambda", "clip_eps", "epochs", "minibatches", "normalize_advantages")}
+_DEFAULT = {f.name: f.default for f in dataclasses.fields(A2CConfig)}
+
+
+def flag(field: str) -> str:
+    """The command-line flag that sets ``A2CConfig`` field ``field`` (e.g. ``"--entropy"`` for ``entropy_coef``)."""
+    return "--" + A2C_FLAGS[field].replace("_", "-")
+
+
 def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eval_episodes: int = 500) -> None:
-    """The A2C hyperparameters (defaults of sections 4.5 and 5.5.2) and the run-control flags."""
-    p.add_argument("--steps", type=positive_int("--steps"), default=1_000_000,
+    """The A2C hyperparameters (defaults: the ``A2CConfig`` fields, i.e. sections 4.5 and 5.5.2), the learner
+    options beside Algorithm 10, several seeds and devices, and the run-control flags."""
+    d = _DEFAULT
+    p.add_argument("--steps", type=positive_int("--steps"), default=d["total_steps"],
                    help="T_max: environment steps in total (the learning rate reaches 0 there)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--envs", type=positive_int("--envs"), default=16, help="parallel environments (16 threads)")
-    p.add_argument("--t-max", type=positive_int("--t-max"), default=32, help="rollout length per update")
-    p.add_argument("--lr", type=positive_float("--lr"), default=1e-4, help="initial learning rate")
-    p.add_argument("--gamma", type=nonnegative_float("--gamma"), default=0.99)
-    p.add_argument("--entropy", type=nonnegative_float("--entropy"), default=A2CConfig.entropy_coef,
+    p.add_argument("--seeds", type=seed_list("--seeds"), default=None,
+                   help="several independent runs at once (vmapped), e.g. 0,1,2; replaces --seed")
+    p.add_argument("--envs", type=positive_int("--envs"), default=d["num_envs"],
+                   help="parallel environments (16 threads)")
+    p.add_argument("--devices", type=positive_int("--devices"), default=None,
+                   help="devices to split the environment batch over (default: all; --envs must be a multiple)")
+    p.add_argument("--t-max", type=positive_int("--t-max"), default=d["t_max"], help="rollout length per update")
+    p.add_argument("--lr", type=positive_float("--lr"), default=d["lr"], help="initial learning rate")
+    p.add_argument("--gamma", type=unit_interval("--gamma"), default=d["gamma"])
+    p.add_argument("--entropy", type=nonnegative_float("--entropy"), default=d["entropy_coef"],
                    help="entropy bonus weight (default 0.01 as in A3C; 0 for the thesis' two loss terms)")
-    p.add_argument("--value-coef", type=nonnegative_float("--value-coef"), default=A2CConfig.value_coef)
-    p.add_argument("--max-grad-norm", type=positive_float("--max-grad-norm"), default=None)
+    p.add_argument("--value-coef", type=nonnegative_float("--value-coef"), default=d["value_coef"])
+    p.add_argument("--max-grad-norm", type=positive_float("--max-grad-norm"), default=d["max_grad_norm"])
+    p.add_argument("--reset-slots", type=positive_int("--reset-slots"), default=d["reset_slots"],
+                   help="fresh initial states drawn per step (default: one per environment)")
+    g = p.add_argument_group("learner options beside Algorithm 10 (not in the thesis; see docs/learning.md)")
+    g.add_argument("--gae-lambda", type=unit_interval("--gae-lambda"), default=d["gae_lambda"],
+                   help="lambda-returns / GAE (1: the n-step returns of Algorithm 10)")
+    g.add_argument("--clip-eps", type=unit_interval("--clip-eps", open_interval=True), default=d["clip_eps"],
+                   help="PPO clipping of the probability ratio (default: none, plain policy gradient)")
+    g.add_argument("--epochs", type=positive_int("--epochs"), default=d["epochs"], help="passes over each rollout")
+    g.add_argument("--minibatches", type=positive_int("--minibatches"), default=d["minibatches"],
+                   help="shuffled minibatches per pass (must divide envs * t-max)")
+    g.add_argument("--normalize-advantages", action="store_true", help="standardize advantages per minibatch")
     p.add_argument("--layout", choices=LAYOUTS, default="loop",
                    help="loop: one jitted update per Python iteration (faster on CPU); scan: updates in lax.scan")
     p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
@@ -57,6 +96,23 @@ def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eva
     p.add_argument("--greedy-eval", action="store_true", help="evaluate the argmax policy instead of sampling")
     p.add_argument("--keep", type=positive_int("--keep"), default=3, help="checkpoints to keep")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def a2c_settings(args, fields=tuple(A2C_FLAGS)) -> dict:
+    """``A2CConfig`` keyword arguments from the parsed flags of :func:`add_a2c_arguments` (``fields``: which)."""
+    return {f: getattr(args, A2C_FLAGS[f]) for f in fields}
+
+
+def learner_options_set(args) -> list[str]:
+    """The flags of the learner options beside Algorithm 10 that ``args`` moves off their faithful default."""
+    return [flag(f) for f, default in LEARNER_OPTIONS.items() if getattr(args, A2C_FLAGS[f]) != default]
+
+
+def algorithm_metadata(config) -> dict:
+    """The config as checkpoint metadata; learner options at their defaults are left out, so checkpoints of
+    faithful runs written before the options existed still resume."""
+    return {k: v for k, v in dataclasses.asdict(config).items()
+            if not (k in LEARNER_OPTIONS and v == LEARNER_OPTIONS[k])}
 
 
 def check_writable(folder: str) -> None:
@@ -105,10 +161,12 @@ class TrainingRun:
     ``--resume``), ``loss_metrics`` (training metrics averaged into each row) and
     ``csv_fields``; and defines :meth:`evaluate`.
 
-    Several seeds in one vmapped program (``train.dcp --seeds``): the subclass
-    sets ``seeds`` and ``multi = True``, overrides :meth:`init_key` (stacked
-    keys) and :meth:`evaluate` returns one dict per seed; each seed gets its own
-    CSV (and TensorBoard folder with ``--tensorboard``), one checkpoint holds all.
+    Several seeds in one vmapped program (``--seeds``) and the devices
+    (``--devices``): the subclass builds its trainer through
+    :meth:`parallel_trainer`, which reads both flags; :meth:`evaluate` then
+    returns one dict per seed (keys from :meth:`eval_key`). Each seed gets its
+    own CSV (and TensorBoard folder with ``--tensorboard``), one checkpoint
+    holds all.
     """
 
     postfix_key = "eval_reward"
@@ -122,13 +180,41 @@ class TrainingRun:
     def run_seeds(self) -> list[int]:
         return list(getattr(self, "seeds", None) or [self.args.seed])
 
+    def parallel_trainer(self, trainer):
+        """``trainer`` spread over ``--devices`` (default all) and vmapped over ``--seeds`` (sets ``seeds``,
+        ``multi`` and ``mesh``)."""
+        a = self.args
+        self.seeds = a.seeds or [a.seed]
+        self.multi = len(self.seeds) > 1
+        available = len(jax.devices())
+        if a.devices is not None and a.devices > available:
+            raise ValueError(f"--devices {a.devices}: JAX sees only {available} device(s)")
+        devices = a.devices or available
+        if a.envs % devices:
+            raise ValueError(f"--envs ({a.envs}) must be divisible by the number of devices ({devices}); "
+                             "change --envs or pass --devices")
+        self.mesh = parallel.data_mesh(devices)
+        return parallel.parallelize(trainer, self.mesh, len(self.seeds) if self.multi else None)
+
+    def _keys(self, offset: int = 0):
+        keys = [jax.random.PRNGKey(s + offset) for s in self.run_seeds]
+        return jax.numpy.stack(keys) if self.multi else keys[0]
+
     def init_key(self):
         """The key of :meth:`trainer.init` (stacked per seed when ``multi``)."""
-        return jax.random.PRNGKey(self.args.seed)
+        return self._keys()
+
+    def eval_key(self, update: int):
+        """The evaluation key at ``update`` (stacked per seed when ``multi``; each seed's equals its single run's)."""
+        base = self._keys(1_000_003)
+        if self.multi:
+            return jax.vmap(jax.random.fold_in, in_axes=(0, None))(base, update)
+        return jax.random.fold_in(base, update)
 
     def place(self, state):
-        """Put a restored state on the devices (identity unless the subclass shards it)."""
-        return state
+        """Put a restored state on the devices (as :meth:`parallel_trainer` placed it)."""
+        mesh = getattr(self, "mesh", None)
+        return state if mesh is None else parallel.place(state, mesh, seed_axis=self.multi)
 
     def paths(self) -> list[tuple[str, str]]:
         """``(metrics CSV, TensorBoard folder)`` per seed."""

@@ -27,6 +27,13 @@ apply to it. ``--omn-lr`` (an option, not in the thesis) gives OMN's
 parameters their own initial learning rate (``A2CConfig.aux_lr``).
 ``--reward-area S`` (an option, not in the thesis) trains on the one-item
 game of section 5.5.5 instead of the standard one (docs/dcg.md).
+
+The learner options of ``train.dcp`` (``--gae-lambda``, ``--clip-eps``,
+``--epochs``, ``--minibatches``, ``--normalize-advantages``,
+``--reset-slots``; not in the thesis) and ``--seeds``/``--devices`` come
+from the same place, :func:`train.common.add_a2c_arguments`. ``--seeds
+0,1,2`` trains independent runs in one vmapped program, each with its own
+``metrics-sSEED.csv``.
 """
 
 from __future__ import annotations
@@ -51,7 +58,7 @@ from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.io import enable_compilation_cache
 from jaxdc.nets import DCG_NETS, make_dcg_net
-from train.common import EXIT_NAN, TrainingRun, add_a2c_arguments
+from train.common import EXIT_NAN, TrainingRun, a2c_settings, add_a2c_arguments
 
 NETS = tuple(DCG_NETS)
 #: Networks with the opponent-action head (``has_aux``).
@@ -133,30 +140,31 @@ class Run(TrainingRun):
         self.args = args
         self.net = make_dcg_net(args.net, args.history)  # validates net and k
         self.env, self.env_params = make_env(args)  # validates grid, strategies, energy
-        self.out = args.out or os.path.join("runs", f"dcg-{args.net}-e{args.energy:g}-s{args.seed}")
+        tag = "-".join(map(str, args.seeds or [args.seed]))
+        self.out = args.out or os.path.join("runs", f"dcg-{args.net}-e{args.energy:g}-s{tag}")
         self.ckpt_dir = os.path.join(self.out, "checkpoints")
         if args.omn_lr is not None and args.net != "omn_conn":
             raise ValueError(f"--omn-lr sets OMN's learning rate and applies to --net omn_conn only, not {args.net!r}")
+        if args.ship is not None and args.seeds is not None and len(args.seeds) > 1:
+            raise ValueError(f"--ship writes one network; train one seed (--seed), not --seeds {args.seeds}")
         aux = args.net in AUX_NETS
         aux_coef = args.alpha if args.net == "emnn" else 1.0
-        self.config = A2CConfig(total_steps=args.steps, num_envs=args.envs, t_max=args.t_max, lr=args.lr,
-                                gamma=args.gamma, entropy_coef=args.entropy, value_coef=args.value_coef,
-                                max_grad_norm=args.max_grad_norm, aux_coef=aux_coef,
-                                aux_lr=args.omn_lr)
-        self.trainer = a2c.make_train(self.config, self.env, self.env_params, self.net,
-                                      aux_target=(lambda info: info["opponent_action"]) if aux else None)
+        self.config = A2CConfig(**a2c_settings(args), aux_coef=aux_coef, aux_lr=args.omn_lr)
+        self.trainer = self.parallel_trainer(a2c.make_train(
+            self.config, self.env, self.env_params, self.net,
+            aux_target=(lambda info: info["opponent_action"]) if aux else None))
         self.metadata = {
             "format": 1, "net": args.net, "problem": "dcg", "grid_size": args.grid_size,
             "total_reward": self.env.total_reward,
             "strategies": list(self.env.strategies), "energy": args.energy,
             "max_steps": args.max_steps, "history": args.history if args.net != "vnn" else 0,
-            "alpha": args.alpha if args.net == "emnn" else None, "seed": args.seed,
+            "alpha": args.alpha if args.net == "emnn" else None,
+            **({"seeds": self.seeds} if self.multi else {"seed": self.seeds[0]}),
             "algorithm": dataclasses.asdict(self.config),
         }
         if args.reward_area is not None:  # only when set, so that runs made before the option still resume
             self.metadata["reward_area"] = args.reward_area
 
-        @jax.jit
         def evaluate(params, key):
             k_ep, k_acc = jax.random.split(key)
             policy = a2c.make_policy(self.net, params, greedy=args.greedy_eval)
@@ -164,17 +172,20 @@ class Run(TrainingRun):
             acc = opponent_accuracy(self.env, self.env_params, self.net, params, k_acc) if aux else jnp.nan
             return finals, acc
 
-        self._evaluate = evaluate
+        self._evaluate = jax.jit(jax.vmap(evaluate) if self.multi else evaluate)
 
-    def evaluate(self, params, update: int) -> dict:
-        key = jax.random.fold_in(jax.random.PRNGKey(self.args.seed + 1_000_003), update)
-        finals, acc = self._evaluate(params, key)
-        s = summarize(finals)
-        row = {"eval_reward": s["reward"]["mean"], "eval_reward_sd": s["reward"]["sd"],
-               "eval_rpe": s["rpe"]["mean"]}
-        if self.args.net in AUX_NETS:
-            row["eval_opponent_accuracy"] = float(acc)
-        return row
+    def evaluate(self, params, update: int) -> list[dict]:
+        """Evaluation columns of each seed (keys from the seed and the update: as a single run's)."""
+        finals, acc = jax.device_get(self._evaluate(params, self.eval_key(update)))
+        rows = []
+        for i in range(len(self.seeds)):
+            s = summarize(jax.tree_util.tree_map(lambda x: x[i], finals) if self.multi else finals)
+            row = {"eval_reward": s["reward"]["mean"], "eval_reward_sd": s["reward"]["sd"],
+                   "eval_rpe": s["rpe"]["mean"]}
+            if self.args.net in AUX_NETS:
+                row["eval_opponent_accuracy"] = float(acc[i] if self.multi else acc)
+            rows.append(row)
+        return rows
 
     def ship(self, path: str, command: str) -> str:
         """Write the final parameters and their metadata (:func:`jaxdc.pretrained.save`)."""
@@ -197,10 +208,10 @@ def main(argv=None) -> int:
         parser.error(str(e))
     if result["status"] == "nan":
         return EXIT_NAN
-    if "eval_reward" in result:
-        acc = result.get("eval_opponent_accuracy")
-        print(f"done: {result['env_steps']} steps, eval reward {result['eval_reward']:.3f} "
-              f"(RPE {result['eval_rpe']:.3f}" + (f", opponent accuracy {acc:.3f})" if acc is not None else ")"))
+    for seed, r in result.get("per_seed", []):
+        acc = r.get("eval_opponent_accuracy")
+        print(f"done: seed {seed}, {r['env_steps']} steps, eval reward {r['eval_reward']:.3f} "
+              f"(RPE {r['eval_rpe']:.3f}" + (f", opponent accuracy {acc:.3f})" if acc is not None else ")"))
     if args.ship is not None:
         argv_text = sys.argv[1:] if argv is None else list(argv)
         path = run.ship(args.ship, "python -m train.dcg " + shlex.join(argv_text))

@@ -31,7 +31,7 @@ import sys
 
 import jax
 
-from jaxdc.agents import a2c, nstep_q, parallel
+from jaxdc.agents import a2c, nstep_q
 from jaxdc.agents.a2c import A2CConfig
 from jaxdc.cli import nonnegative_float, positive_float, positive_int
 from jaxdc.core import grid
@@ -42,37 +42,17 @@ from jaxdc.dcp import navigators
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.io import enable_compilation_cache
 from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
-from train.common import EXIT_NAN, TrainingRun, add_a2c_arguments, tensorboard_writer
+from train.common import (EXIT_NAN, TrainingRun, a2c_settings, add_a2c_arguments, algorithm_metadata,
+                          learner_options_set, tensorboard_writer)
 
 #: Networks of the command line: the actor-critics train with A2C, EQN with n-step Q-learning.
 NETS = tuple(sorted(ACTOR_CRITICS)) + ("eqn",)
 LOSS_METRICS = ("loss", "policy_loss", "value_loss", "entropy", "q_mean", "epsilon")
+#: The ``A2CConfig`` settings n-step Q-learning shares (its config has no loss weights or learner options).
+Q_FIELDS = ("total_steps", "num_envs", "t_max", "lr", "gamma", "max_grad_norm", "reset_slots")
 CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", *LOSS_METRICS, "train_episodes",
               "train_reward", "eval_reward", "eval_reward_sd", "eval_energy",
               "eval_rpe")
-
-
-def _seed_list(text):
-    try:
-        seeds = [int(x) for x in text.split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--seeds must be comma-separated ints, e.g. 0,1,2, got {text!r}") from None
-    if len(set(seeds)) != len(seeds):
-        raise argparse.ArgumentTypeError(f"--seeds must be distinct, got {text!r}")
-    return seeds
-
-
-def _unit_interval(name, low_open=False):
-    def parse(text):
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not (0 < v < 1 if low_open else 0 <= v <= 1):
-            raise argparse.ArgumentTypeError(f"{name} must be in {'(0, 1)' if low_open else '[0, 1]'}, got {text!r}")
-        return v
-
-    return parse
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -88,22 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--energy", nargs=2, type=positive_float("--energy"), metavar=("INIT", "MAX"),
                    default=(8.0, 16.0), help="initial and maximal energy (Tables 4.3-4.8: 8 16)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=1000, help="episode step cap")
-    add_a2c_arguments(p)  # --steps --seed --envs --t-max --lr ... --keep --no-progress (train/common.py)
-    p.add_argument("--seeds", type=_seed_list, default=None,
-                   help="several independent runs at once (vmapped), e.g. 0,1,2; replaces --seed")
-    p.add_argument("--devices", type=positive_int("--devices"), default=None,
-                   help="devices to split the environment batch over (default: all; --envs must be a multiple)")
-    p.add_argument("--reset-slots", type=positive_int("--reset-slots"), default=None,
-                   help="fresh initial states drawn per step (default: one per environment)")
-    g = p.add_argument_group("learner options beside Algorithm 10 (not in the thesis; see docs/learning.md)")
-    g.add_argument("--gae-lambda", type=_unit_interval("--gae-lambda"), default=1.0,
-                   help="lambda-returns / GAE (1: the n-step returns of Algorithm 10)")
-    g.add_argument("--clip-eps", type=_unit_interval("--clip-eps", low_open=True), default=None,
-                   help="PPO clipping of the probability ratio (default: none, plain policy gradient)")
-    g.add_argument("--epochs", type=positive_int("--epochs"), default=1, help="passes over each rollout")
-    g.add_argument("--minibatches", type=positive_int("--minibatches"), default=1,
-                   help="shuffled minibatches per pass (must divide envs * t-max)")
-    g.add_argument("--normalize-advantages", action="store_true", help="standardize advantages per minibatch")
+    add_a2c_arguments(p)  # --steps --seed(s) --envs --devices ... learner options ... --no-progress (train/common.py)
     p.add_argument("--target-every", type=positive_int("--target-every"), default=40_000,
                    help="eqn: environment steps between target-network copies")
     p.add_argument("--eval-epsilon", type=nonnegative_float("--eval-epsilon"), default=nstep_q.EVAL_EPSILON,
@@ -112,17 +77,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tensorboard", action="store_true",
                    help="also write the metrics as TensorBoard event files into OUT/tb (needs tensorboardX)")
     return p
-
-
-#: Learner options beside Algorithm 10 and their defaults (the faithful learner).
-LEARNER_OPTIONS = {"gae_lambda": 1.0, "clip_eps": None, "epochs": 1, "minibatches": 1, "normalize_advantages": False}
-
-
-def _algorithm_metadata(config) -> dict:
-    """The config as checkpoint metadata; learner options at their defaults are left out, so checkpoints of
-    faithful runs written before the options existed still resume."""
-    return {k: v for k, v in dataclasses.asdict(config).items()
-            if not (k in LEARNER_OPTIONS and v == LEARNER_OPTIONS[k])}
 
 
 class Run(TrainingRun):
@@ -137,46 +91,34 @@ class Run(TrainingRun):
         if args.min_total_reward is not None and args.min_total_reward > args.total_reward:
             raise ValueError(f"--min-total-reward ({args.min_total_reward}) exceeds --total-reward "
                              f"({args.total_reward})")
+        if args.net == "eqn" and learner_options_set(args):
+            raise ValueError(f"{', '.join(learner_options_set(args))}: learner options of A2C; "
+                             "--net eqn trains with n-step Q-learning, which has none of them")
         self.args = args
         if args.tensorboard:
             tensorboard_writer(None)  # fail before any work if tensorboardX is missing
-        self.seeds = args.seeds or [args.seed]
-        self.multi = len(self.seeds) > 1
-        tag = "-".join(map(str, self.seeds))
+        tag = "-".join(map(str, args.seeds or [args.seed]))
         self.out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{tag}")
         self.ckpt_dir = os.path.join(self.out, "checkpoints")
-        common = dict(total_steps=args.steps, num_envs=args.envs, t_max=args.t_max, lr=args.lr, gamma=args.gamma,
-                      max_grad_norm=args.max_grad_norm, reset_slots=args.reset_slots)
         if args.net == "eqn":
             algo, self.net = nstep_q, EQN()
-            self.config = nstep_q.QConfig(**common, target_every=args.target_every)
+            self.config = nstep_q.QConfig(**a2c_settings(args, Q_FIELDS), target_every=args.target_every)
         else:
             algo, self.net = a2c, make_net(args.net)
-            self.config = A2CConfig(**common, entropy_coef=args.entropy, value_coef=args.value_coef,
-                                    gae_lambda=args.gae_lambda, clip_eps=args.clip_eps, epochs=args.epochs,
-                                    minibatches=args.minibatches, normalize_advantages=args.normalize_advantages)
+            self.config = A2CConfig(**a2c_settings(args))
         self.env = dcp_env.DCP(grid_size=args.grid_size, total_reward=args.total_reward,
                                min_total_reward=args.min_total_reward)
         self.env_params = self.env.make_params(args.risk, tuple(args.energy), args.max_steps)
         table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
         self.heuristics = navigators.batched_heuristics(self.env_params, table)
-        available = len(jax.devices())
-        if args.devices is not None and args.devices > available:
-            raise ValueError(f"--devices {args.devices}: JAX sees only {available} device(s)")
-        devices = args.devices or available
-        if args.envs % devices:
-            raise ValueError(f"--envs ({args.envs}) must be divisible by the number of devices ({devices}); "
-                             "change --envs or pass --devices")
-        self.mesh = parallel.data_mesh(devices)
-        self.trainer = parallel.parallelize(algo.make_train(self.config, self.env, self.env_params, self.net,
-                                                            self.heuristics),
-                                            self.mesh, len(self.seeds) if self.multi else None)
+        self.trainer = self.parallel_trainer(algo.make_train(self.config, self.env, self.env_params, self.net,
+                                                             self.heuristics))
         self.metadata = {
             "format": 1, "net": args.net, "grid_size": args.grid_size, "total_reward": args.total_reward,
             "risk": args.risk, "energy": list(args.energy), "max_steps": args.max_steps,
             **({} if args.min_total_reward is None else {"min_total_reward": args.min_total_reward}),
             **({"seeds": self.seeds} if self.multi else {"seed": self.seeds[0]}),
-            "algorithm": _algorithm_metadata(self.config),
+            "algorithm": algorithm_metadata(self.config),
         }
 
         # evaluation always drops --total-reward units (the setting of the tables), also with --min-total-reward
@@ -196,23 +138,10 @@ class Run(TrainingRun):
                                          epsilon=0.0 if a.greedy_eval else a.eval_epsilon)
         return a2c.make_policy(self.net, params, self.heuristics, greedy=a.greedy_eval)
 
-    # -- state ------------------------------------------------------------------------------
-    def _keys(self, offset: int = 0):
-        keys = [jax.random.PRNGKey(s + offset) for s in self.seeds]
-        return jax.numpy.stack(keys) if self.multi else keys[0]
-
-    def init_key(self):
-        return self._keys()
-
-    def place(self, state):
-        return parallel.place(state, self.mesh, seed_axis=self.multi)
-
     # -- one evaluation per seed ------------------------------------------------------------
     def evaluate(self, params, update: int) -> list[dict]:
         """Evaluation columns of each seed (keys from the seed and the update: as a single run's)."""
-        keys = jax.vmap(jax.random.fold_in, in_axes=(0, None))(self._keys(1_000_003), update) if self.multi else \
-            jax.random.fold_in(self._keys(1_000_003), update)
-        results = jax.device_get(self._evaluate(params, keys))
+        results = jax.device_get(self._evaluate(params, self.eval_key(update)))
         rows = []
         for i in range(len(self.seeds)):
             s = summarize(jax.tree_util.tree_map(lambda x: x[i], results) if self.multi else results)
