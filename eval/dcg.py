@@ -134,7 +134,7 @@ def render_parser() -> argparse.ArgumentParser:
 
 
 def optimum_parser() -> argparse.ArgumentParser:
-    from jaxdc.dcg.env import OPPONENT_STARTS, PATROL_TARGETS
+    from jaxdc.dcg.env import CAPTURES, OPPONENT_STARTS, PATROL_TARGETS
     from jaxdc.dcg.opponents import CHASE_TIES
 
     p = argparse.ArgumentParser(prog="python -m eval.dcg optimum",
@@ -154,6 +154,11 @@ def optimum_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-items-on-base", action="store_true", help="the drop leaves the base empty")
     p.add_argument("--no-reward-when-caught", action="store_true",
                    help="an item taken on the step the collector is caught does not count")
+    p.add_argument("--capture", choices=CAPTURES, default=CAPTURES[0],
+                   help="rule reading: 'opponent_moves' captures only when the opponent moves onto the collector")
+    p.add_argument("--safe-base", action="store_true", help="rule reading: no capture in the base")
+    p.add_argument("--opponent-out-of-base", action="store_true",
+                   help="rule reading: the opponent may not enter the base")
     p.add_argument("--episodes", type=positive_int("--episodes"), default=2000, help="sampled games (2000)")
     p.add_argument("--seed", type=int, default=0, help="the games' PRNG key")
     p.add_argument("--no-progress", action="store_true")
@@ -591,7 +596,8 @@ def cmd_optimum(argv) -> int:
 
         env = DCG(grid_size=args.grid_size, total_reward=args.total_reward, history=1, obs_history=False,
                   strategies=strategy_set(args), opponent_start=args.opponent_start, patrol_target=args.patrol_target,
-                  items_on_base=not args.no_items_on_base, reward_when_caught=not args.no_reward_when_caught)
+                  items_on_base=not args.no_items_on_base, reward_when_caught=not args.no_reward_when_caught,
+                  capture=args.capture, safe_base=args.safe_base, opponent_enters_base=not args.opponent_out_of_base)
         params = env.make_params(energy=args.energy, max_steps=args.max_steps, chase_tie=args.chase_tie)
         res = sampled_bound(env, params, jax.random.PRNGKey(args.seed), args.episodes,
                             progress=not args.no_progress)

@@ -283,3 +283,42 @@ def test_config_equality_and_outcomes():
     assert DCG() == DCG() and hash(DCG()) == hash(DCG()) and DCG() != DCG(history=3)
     assert OUTCOMES == ("running", "caught", "energy", "cleared", "truncated")
     assert ENV.num_actions == grid.NUM_ACTIONS == 9
+
+
+@pytest.mark.parametrize("reading,energy_left,counted", [("charged", 4.0, 1), ("uncharged", 5.0, 0)])
+def test_caught_energy_reading(reading, energy_left, counted):
+    """Rule (1) catches the collector before it moves: one unit charged, or the step ends before the energy rule."""
+    env = DCG(grid_size=3, strategies=("restricted",), caught_energy=reading)
+    params = env.make_params(energy=8.0)
+    state = make_game(env, pos=(1, 1), opp=(1, 2), strategy="restricted", items={(2, 2): 1.0}, energy=5.0)
+    _, s2, _, terminated, _, info = env.step_env(jax.random.PRNGKey(0), state, 4, params)
+    assert bool(terminated) and int(s2.outcome) == CAUGHT
+    assert float(s2.energy) == energy_left and int(info["episode_energy"]) == counted
+
+
+def test_safe_base_and_opponent_out_of_base():
+    env = DCG(grid_size=3, strategies=("restricted",), safe_base=True)
+    params = env.make_params(energy=8.0)
+    state = make_game(env, pos=(0, 0), opp=(0, 1), strategy="restricted", items={(2, 2): 1.0})  # the chaser steps into the base
+    _, s2, *_ = env.step_env(jax.random.PRNGKey(0), state, 0, params)  # stay: not caught in the base
+    assert int(s2.outcome) == RUNNING and tuple(np.asarray(s2.opponent.pos)) == (0, 0)
+    plain = DCG(grid_size=3, strategies=("restricted",))
+    assert int(plain.step_env(jax.random.PRNGKey(0), make_game(plain, (0, 0), (0, 1), "restricted"), 0,
+                              params)[1].outcome) == CAUGHT
+    barred = DCG(grid_size=3, strategies=("restricted",), opponent_enters_base=False)
+    _, s3, _, _, _, info = barred.step_env(jax.random.PRNGKey(0), make_game(barred, (0, 0), (0, 1), "restricted", {(2, 2): 1.0}),
+                                           0, params)
+    assert tuple(np.asarray(s3.opponent.pos)) == (0, 1) and int(info["opponent_action"]) == grid.STAY
+    assert int(s3.outcome) == RUNNING
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    (dict(capture="never"), "capture must be one of"),
+    (dict(caught_energy="half"), "caught_energy must be one of"),
+    (dict(safe_base=1), "safe_base must be a bool"),
+    (dict(opponent_enters_base="no"), "opponent_enters_base must be a bool"),
+    (dict(opponent_enters_base=False, opponent_start="any"), "needs opponent_start='not_base'"),
+])
+def test_rule_readings_bad_input(kwargs, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        DCG(**kwargs)

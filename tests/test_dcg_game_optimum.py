@@ -44,6 +44,23 @@ def test_matches_brute_force_over_all_action_sequences(counts, tie):
     np.testing.assert_array_equal(got, want)
 
 
+@pytest.mark.parametrize("rules", [dict(capture="opponent_moves"), dict(safe_base=True),
+                                   dict(opponent_enters_base=False), dict(capture="opponent_moves", safe_base=True)],
+                         ids=["opponent_moves", "safe_base", "opponent_out_of_base", "both_readings"])
+def test_rule_readings_match_brute_force(rules):
+    """The env's rule readings (docs/dcg.md, "Rule readings") and the search agree: brute force in the env."""
+    env = DCG(grid_size=3, total_reward=4, history=1, obs_history=False, **rules)
+    params = env.make_params(energy=3.0, max_steps=5)
+    states = resets(env, params, 48, seed=1)
+    want = best_sequence(env, params, states, 5)
+    got = np.array([g.reward for g in optima(env, params, states)])
+    assert len(set(want.tolist())) >= 3, "a degenerate case tests nothing"
+    np.testing.assert_array_equal(got, want)
+    plain = DCG(grid_size=3, total_reward=4, history=1, obs_history=False)
+    assert not np.array_equal(want, best_sequence(plain, params, resets(plain, params, 48, seed=1), 5)), \
+        "the reading changes nothing here"
+
+
 def test_one_item_agrees_with_the_single_item_solver():
     env = DCG(grid_size=4, reward_area=3, history=1, obs_history=False)
     params = env.make_params(energy=6.0, max_steps=30)

@@ -58,6 +58,12 @@ PATROL_TARGETS = ("other", "any_non_base")
 HISTORY_FILLS = ("zeros", "first")
 #: What "energy consumed" counts (as for the DCP, see docs/ambiguities.md).
 ENERGY_METRICS = ("not_stay_in_base", "outside_base", "all_steps")
+#: Readings of the capture rule (section 5.3): "both" -- the opponent lands on the collector (1) or the
+#: collector moves onto the opponent (3); "opponent_moves" -- only (1).
+CAPTURES = ("both", "opponent_moves")
+#: Energy on a step where the opponent lands on the collector before it moves (rule 1): "charged" -- one unit,
+#: "regardless of what action was taken"; "uncharged" -- the step ends before the energy rule.
+CAUGHT_ENERGIES = ("charged", "uncharged")
 
 
 @struct.dataclass
@@ -146,6 +152,10 @@ class DCG(Environment[EnvState, EnvParams]):
         reward_when_caught: bool = True,
         energy_metric: str = "not_stay_in_base",
         reward_area: int | None = None,
+        capture: str = "both",
+        safe_base: bool = False,
+        opponent_enters_base: bool = True,
+        caught_energy: str = "charged",
     ):
         self.grid_size = grid.check_grid_size(grid_size)
         if self.grid_size**2 > MAX_RANGE:
@@ -169,11 +179,21 @@ class DCG(Environment[EnvState, EnvParams]):
         self.patrol_target = _check_choice("patrol_target", patrol_target, PATROL_TARGETS)
         self.reward_when_caught = bool(reward_when_caught)
         self.energy_metric = _check_choice("energy_metric", energy_metric, ENERGY_METRICS)
+        self.capture = _check_choice("capture", capture, CAPTURES)
+        self.caught_energy = _check_choice("caught_energy", caught_energy, CAUGHT_ENERGIES)
+        for name, v in (("safe_base", safe_base), ("opponent_enters_base", opponent_enters_base)):
+            if not isinstance(v, (bool, np.bool_)):
+                raise TypeError(f"{name} must be a bool, got {v!r}")
+        self.safe_base = bool(safe_base)
+        self.opponent_enters_base = bool(opponent_enters_base)
+        if not self.opponent_enters_base and self.opponent_start != "not_base":
+            raise ValueError(f"opponent_enters_base=False needs opponent_start='not_base', got {opponent_start!r}")
 
     def _config(self) -> tuple:
         return (self.grid_size, self.total_reward, self._strategies, self.history, self.obs_history,
                 self.history_fill, self.items_on_base, self.opponent_start, self.patrol_target,
-                self.reward_when_caught, self.energy_metric, self.reward_area)
+                self.reward_when_caught, self.energy_metric, self.reward_area, self.capture, self.safe_base,
+                self.opponent_enters_base, self.caught_energy)
 
     def __repr__(self) -> str:
         return (
@@ -181,8 +201,17 @@ class DCG(Environment[EnvState, EnvParams]):
             f"history={self.history}, obs_history={self.obs_history}, history_fill={self.history_fill!r}, "
             f"items_on_base={self.items_on_base}, opponent_start={self.opponent_start!r}, "
             f"patrol_target={self.patrol_target!r}, reward_when_caught={self.reward_when_caught}, "
-            f"energy_metric={self.energy_metric!r}, reward_area={self.reward_area})"
+            f"energy_metric={self.energy_metric!r}, reward_area={self.reward_area}"
+            + ("" if self.default_rules() else
+               f", capture={self.capture!r}, safe_base={self.safe_base}, "
+               f"opponent_enters_base={self.opponent_enters_base}, caught_energy={self.caught_energy!r}")
+            + ")"
         )
+
+    def default_rules(self) -> bool:
+        """Whether the four rule readings (``capture`` ... ``caught_energy``) are the defaults."""
+        return (self.capture, self.safe_base, self.opponent_enters_base, self.caught_energy) == (
+            CAPTURES[0], False, True, CAUGHT_ENERGIES[0])
 
     # -- parameters -------------------------------------------------------------------
     def make_params(self, energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight") -> EnvParams:
@@ -278,14 +307,25 @@ class DCG(Environment[EnvState, EnvParams]):
         ]
         action, opp = jax.lax.switch(state.strategy, branches, key, state.opponent, state, params)
         action = jnp.asarray(action, jnp.int32)
-        return action, opp.replace(pos=grid.move(state.opponent.pos, action, self.grid_size))
+        pos = grid.move(state.opponent.pos, action, self.grid_size)
+        if not self.opponent_enters_base:  # a move into the base becomes a stay
+            blocked = jnp.all(pos == 0)
+            pos = jnp.where(blocked, state.opponent.pos, pos)
+            action = jnp.where(blocked, grid.STAY, action)
+        return action, opp.replace(pos=pos)
 
     def step_env(self, key, state: EnvState, action, params: EnvParams):
         """One transition of section 5.3, without auto-reset."""
         o_t, opp = self.opponent_move(key, state, params)
         caught_first = jnp.all(opp.pos == state.pos)  # (1) the opponent lands on the collector
+        if self.safe_base:
+            caught_first &= ~jnp.all(state.pos == 0)
         pos = jnp.where(caught_first, state.pos, grid.move(state.pos, action, self.grid_size))  # (2)
         caught_after = ~caught_first & jnp.all(pos == opp.pos)  # (3)
+        if self.capture == "opponent_moves":
+            caught_after = jnp.bool_(False)
+        elif self.safe_base:
+            caught_after &= ~jnp.all(pos == 0)
         collect = ~caught_first
         if not self.reward_when_caught:
             collect = collect & ~caught_after
@@ -301,6 +341,9 @@ class DCG(Environment[EnvState, EnvParams]):
             used = ~in_base
         else:
             used = jnp.bool_(True)
+        if self.caught_energy == "uncharged":  # the step ends at rule (1), before the energy rule
+            energy = jnp.where(caught_first, state.energy, energy)
+            used &= ~caught_first
         time = state.time + 1
         outcome = jnp.select(
             [caught_first | caught_after, out_of_energy, jnp.all(items <= 0), time >= params.max_steps],

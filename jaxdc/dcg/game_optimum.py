@@ -131,12 +131,11 @@ def game_optimum(env, machines: Machines, state) -> GameOptimum:
         m, p, e, o = np.unravel_index(frontier, shape)
         o2 = nxt[o, p]  # (1) the opponent moves
         q2 = opos[o2]
-        free = q2 != p  # not caught before moving
         p2 = succ[p]  # [F, 9] (2) the collector moves and collects
+        free, met = optimal.captures(env, p, q2, p2)  # (1) not caught before moving, (3) caught after
         bit = bit_of[p2]
         new = (bit >= 0) & (((m[:, None] >> np.maximum(bit, 0)) & 1) == 0)
         m2 = np.where(new, m[:, None] | (1 << np.maximum(bit, 0)), m[:, None])
-        met = p2 == q2[:, None]  # (3)
         counted = free[:, None] & (True if env.reward_when_caught else ~met)
         gain = np.where(counted, value[m2], 0.0)
         i, a = np.unravel_index(np.argmax(gain), gain.shape)

@@ -233,6 +233,22 @@ def _opponent_machine(env, params, strategy: int, weight: np.ndarray):
 # -- the search ----------------------------------------------------------------------------------
 
 
+def captures(env, p, q2, p2):
+    """Rules (1) and (3) of :meth:`DCG.step_env` on arrays of cells, for the env's rule readings.
+
+    ``p`` [F] the collector's cells, ``q2`` [F] the opponent's after it moved, ``p2`` [F, A] the collector's
+    after each action. Returns ``free`` [F] (not caught before moving) and ``met`` [F, A] (caught after).
+    """
+    free = q2 != p
+    met = p2 == q2[:, None]
+    if env.safe_base:
+        free = free | (p == 0)
+        met = met & (p2 != 0)
+    if env.capture == "opponent_moves":
+        met = np.zeros_like(met)
+    return free, met
+
+
 def _successors(n: int) -> np.ndarray:
     r, cc = np.divmod(np.arange(n * n), n)
     rr = np.clip(r[:, None] + grid.DELTAS_NP[None, :, 0], 0, n - 1)
@@ -295,9 +311,8 @@ def _search(env, energy: float, max_steps: int, nxt, opos):
         b, p, e, o = np.unravel_index(frontier, shape)
         o2 = nxt[b, o, p]
         q2 = opos[b, o2]
-        free = q2 != p  # (1) not caught before moving
         p2 = succ[p]  # [F, 9] (2)
-        met = p2 == q2[:, None]  # (3)
+        free, met = captures(env, p, q2, p2)  # (1), (3)
         got = free[:, None] & (True if env.reward_when_caught else ~met)
         i, a = np.nonzero(np.broadcast_to(got, p2.shape))
         key = b[i] * c + p2[i, a]
