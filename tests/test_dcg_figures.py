@@ -114,3 +114,51 @@ def test_area_claims_need_two_standard_errors():
     results = {s: {"VNN": bar(0.3 + 0.002 * s)} for s in (1, 2, 3, 4)}
     rows = {c: (o, a) for c, o, a in claims(EXPERIMENTS["area"], results)}
     assert rows["Every network's reward falls as the reward area shrinks (Fig. 5.11)"] == ("VNN: no", "no")
+
+
+def _strong(net, steps=3_000_000, **kw):
+    meta = _meta(net, steps=steps, **kw)
+    meta["algorithm"] = {"clip_eps": 0.2, "total_steps": steps}
+    return meta
+
+
+def test_strong_networks_join_figs_5_6_5_16_and_5_11_only():
+    pool = {"vnn": _meta("vnn"), "vnn_5m": _meta("vnn", steps=5_000_000), "vnn_strong": _strong("vnn"),
+            "vnn_strong_1m": _strong("vnn", steps=1_000_000), "emnn_strong": _strong("emnn", alpha=0.001),
+            "omn_conn_strong": _strong("omn_conn")}
+    assert label(pool["vnn_strong"]) == "VNN strong" and label(pool["emnn_strong"]) == "EMNN a=0.001 strong"
+    standard = select(pool, EXPERIMENTS["standard"], None)
+    assert [(e.label, e.name) for e in standard] == [("VNN", "vnn"), ("VNN strong", "vnn_strong_1m")]
+    five = select(pool, EXPERIMENTS["standard_5m"], None)
+    assert [e.name for e in five] == ["vnn_5m", "vnn_strong", "emnn_strong", "omn_conn_strong"]
+    assert {e.name for e in select(pool, EXPERIMENTS["area"], 1)} == {"vnn", "vnn_strong", "emnn_strong",
+                                                                      "omn_conn_strong"}
+    for name, group in (("energy", 10.0), ("double_blind", None)):
+        assert not any(e.label.endswith("strong") for e in select(pool, EXPERIMENTS[name], group))
+    # a strong network never stands in for a missing faithful one
+    assert "OMN+CoNN trained for 5M steps" in missing(pool, EXPERIMENTS["standard_5m"])
+
+
+def test_claims_are_checked_on_the_faithful_and_the_strong_bars_apart():
+    results = {None: {"VNN": _summary(5.0), "IMNN": _summary(4.0), "EMNN a=0.001": _summary(6.0),
+                      "OMN+CoNN": _summary(7.0),
+                      "VNN strong": _summary(7.0), "IMNN strong": _summary(7.1), "EMNN a=0.001 strong": _summary(7.2),
+                      "OMN+CoNN strong": _summary(7.3)}}
+    rows = claims(EXPERIMENTS["standard"], results)
+    ranking = [(o, a) for c, o, a in rows if c.startswith("The ranking")]
+    assert ranking == [("VNN 5.00 < IMNN 4.00 < EMNN a=0.001 6.00 < OMN+CoNN 7.00", "no")]
+    strong = {c.removeprefix("[strong] "): (o, a) for c, o, a in rows if c.startswith("[strong] ")}
+    assert strong["The ranking VNN < IMNN < EMNN < OMN+CoNN (Fig. 5.6: +9%, +17%, above +19%)"][1] == "yes"
+    assert strong["OMN+CoNN: above +19% episode reward over VNN (Fig. 5.6)"] == ("+4.3%", "no")
+    assert len(strong) == len(rows) - len(strong)  # every claim once per family
+
+
+def test_the_ranking_needs_two_standard_errors_between_neighbours():
+    def s(mean):
+        return dict(_summary(mean, sd=1.0), episodes=100)  # SE of a difference: 0.141
+
+    results = {None: {"VNN": s(5.0), "IMNN": s(5.5), "EMNN a=0.001": s(5.6), "OMN+CoNN": s(6.0)}}
+    ranking = [a for c, o, a in claims(EXPERIMENTS["standard"], results) if c.startswith("The ranking")]
+    assert ranking == ["no"]  # IMNN -> EMNN is 0.1 < 2 SE
+    results[None].update({"EMNN a=0.001": s(5.8), "OMN+CoNN": s(6.2)})
+    assert [a for c, o, a in claims(EXPERIMENTS["standard"], results) if c.startswith("The ranking")] == ["yes"]

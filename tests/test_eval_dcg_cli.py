@@ -81,7 +81,7 @@ def test_same_seed_same_numbers(nets, tmp_path, capsys):
 def test_figure_writes_png_json_and_claims(nets, tmp_path, capsys):
     out, img = tmp_path / "res", tmp_path / "img"
     argv = ["figure", "5.6", "--nets-dir", nets, "--episodes", EPISODES, "--out", str(out), "--img", str(img),
-            "--cache", str(tmp_path / "cache")]
+            "--cache", str(tmp_path / "cache"), "--bound-episodes", "8"]
     md = _run(argv, capsys).out
     assert sorted(os.listdir(img)) == ["dcg_fig5_6.png", "dcg_fig5_7.png", "dcg_standard_per_strategy.png"]
     assert all((img / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for f in os.listdir(img))
@@ -93,8 +93,14 @@ def test_figure_writes_png_json_and_claims(nets, tmp_path, capsys):
     assert any(m.startswith("VNN") for m in data["missing"])  # says which networks are missing
     assert (out / "figure_standard.csv").read_text().startswith("group,network,strategy")
     assert "| thesis claim | ours | agrees |" in md and "Missing networks" in md
-    # the evaluation is stored and reused: a second run reads it instead of playing again
-    (stored,) = os.listdir(tmp_path / "cache")
+    # the sampled full-information bound of the game is drawn and every bar gets its share of it
+    bound = data["bounds"]["all"]
+    assert bound["episodes"] == 8 and bound["total"] > 0 and set(bound["per_strategy"]) <= {"patrol", "restricted",
+                                                                                            "with_fog"}
+    assert data["results"]["all"]["OMN+CoNN"]["fraction_of_bound"] == pytest.approx(
+        data["results"]["all"]["OMN+CoNN"]["reward"]["mean"] / bound["total"])
+    # the evaluation (and the bound) are stored and reused: a second run reads them instead of playing again
+    (stored,) = [f for f in os.listdir(tmp_path / "cache") if not f.startswith("bound_")]
     with open(tmp_path / "cache" / stored) as f:
         kept = json.load(f)
     kept["reward"]["mean"] = 123.0

@@ -13,6 +13,12 @@ the thesis retrains for the energy levels (5.5.4), for five million steps
 way is available, the standard network is played in the changed game instead
 and the row says so (``note``), or the bar is missing and
 :func:`missing` says which training run would fill it.
+
+Beside the thesis' networks, the *strong* ones (trained with the clipped
+surrogate, docs/dcg.md "Strong collectors"; beyond the thesis) join the
+experiments that name them (:attr:`Experiment.strong`) as bars labelled
+``"VNN strong"`` etc., and :func:`claims` checks every claim of the text on
+them too, separately from the faithful bars.
 """
 
 from __future__ import annotations
@@ -40,17 +46,22 @@ class Experiment:
     strategies: tuple = STANDARD_STRATEGIES  # the opponent set played
     trained_strategies: tuple = STANDARD_STRATEGIES  # the set the wanted networks were trained on
     five_million: bool = False  # wants networks trained for 5M steps (5.5.6)
+    #: which strong networks join the bars: "1m" (trained at most 1M steps), "final" (trained longer), or None
+    strong: str | None = None
+    #: whether the charts draw the sampled full-information bound of the game (jaxdc.dcg.game_optimum)
+    game_bound: bool = False
 
 
 EXPERIMENTS = {
     "standard": Experiment("standard", ("5.6", "5.7"), "standard setting (5x5, 10 rewards, energy 15), 1M steps",
-                           "", (None,)),
+                           "", (None,), strong="1m", game_bound=True),
     "energy": Experiment("energy", ("5.8", "5.9"), "maximum energy 10, 15, 20 (section 5.5.4)", "energy",
                          (10.0, 15.0, 20.0)),
     "area": Experiment("area", ("5.11", "5.12"), "one unit item in the bottom-right s x s reward area "
-                       "(section 5.5.5, Fig. 5.10)", "reward area", (1, 2, 3, 4)),
+                       "(section 5.5.5, Fig. 5.10)", "reward area", (1, 2, 3, 4), strong="final"),
     "standard_5m": Experiment("standard_5m", ("5.16", "5.17"), "standard setting, 5M training steps (section 5.5.6)",
-                              "", (None,), five_million=True),
+                              "", (None,), five_million=True, strong="final",
+                              game_bound=True),
     "double_blind": Experiment("double_blind", ("5.18", "5.19"), "with-fog replaced by double-blind with-fog "
                                "(section 5.5.7), 1M steps", "", (None,), DOUBLE_BLIND_STRATEGIES,
                                DOUBLE_BLIND_STRATEGIES),
@@ -59,28 +70,45 @@ EXPERIMENTS = {
 FIGURES = {f: e.name for e in EXPERIMENTS.values() for f in e.figures}
 
 
+#: The label suffix of a strong network's bar.
+STRONG = " strong"
+
+
+def is_strong(meta: dict) -> bool:
+    """Whether ``meta`` describes a strong network: trained with the clipped surrogate (``--clip-eps``), the
+    PPO-style recipe of docs/dcg.md, beyond the thesis' A3C."""
+    return (meta.get("algorithm") or {}).get("clip_eps") is not None
+
+
 def label(meta: dict) -> str:
-    """The bar label of a network: ``VNN``, ``IMNN``, ``EMNN a=0.001``, ``OMN+CoNN``."""
+    """The bar label of a network: ``VNN``, ``IMNN``, ``EMNN a=0.001``, ``OMN+CoNN``; ``... strong`` for a strong one."""
     name = meta.get("net")
     text = NET_LABELS.get(name, str(name))
     if name == "emnn" and meta.get("alpha") is not None:
         text += f" a={meta['alpha']:g}"
-    return text
+    return text + (STRONG if is_strong(meta) else "")
 
 
 def _order(meta: dict):
     name = meta.get("net")
-    return (NET_ORDER.index(name) if name in NET_ORDER else len(NET_ORDER), -(meta.get("alpha") or 0.0))
+    return (is_strong(meta), NET_ORDER.index(name) if name in NET_ORDER else len(NET_ORDER),
+            -(meta.get("alpha") or 0.0))
 
 
-def _trained(meta: dict, strategies, energy: float, five_million: bool) -> bool:
+def _trained(meta: dict, strategies, energy: float, five_million: bool, strong: str | None = None) -> bool:
     """Whether ``meta`` describes a network trained as the thesis did: on the standard game (no reward area,
-    which is beyond the thesis), with ``strategies``, at ``energy``, for 1M or 5M steps."""
+    which is beyond the thesis), with ``strategies``, at ``energy``, for 1M or 5M steps.
+
+    A strong network (:func:`is_strong`) qualifies only where ``strong`` asks for it: ``"1m"`` one trained
+    at most 1M steps, ``"final"`` one trained longer (the recipe's full budget)."""
     steps = meta.get("steps", STEPS_1M)
-    return (meta.get("reward_area") is None
+    if is_strong(meta):
+        steps_ok = strong is not None and (steps <= STEPS_1M) == (strong == "1m")
+    else:
+        steps_ok = (steps >= STEPS_5M) == five_million
+    return (steps_ok and meta.get("reward_area") is None
             and tuple(meta.get("strategies", STANDARD_STRATEGIES)) == tuple(strategies)
-            and float(meta.get("energy", 15.0)) == float(energy)
-            and (steps >= STEPS_5M) == five_million)
+            and float(meta.get("energy", 15.0)) == float(energy))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -108,7 +136,7 @@ def select(pool: dict, exp: Experiment, group) -> list[Entry]:
         chosen = {}
         for name in sorted(pool):
             meta = pool[name]
-            if _trained(meta, strategies, energy_, exp.five_million):
+            if _trained(meta, strategies, energy_, exp.five_million, exp.strong):
                 chosen.setdefault(label(meta), (name, meta))
         return chosen
 
@@ -194,7 +222,26 @@ def _best(results, group, col="reward", key=max):
     return key(row, key=row.get) if row else None
 
 
+def family(results: dict, strong: bool) -> dict:
+    """The faithful (``strong=False``) or the strong bars of ``results``, the strong ones under their net's
+    label without the suffix, so that every claim reads the same on both."""
+    return {g: {lb.removesuffix(STRONG): r for lb, r in row.items() if lb.endswith(STRONG) == strong}
+            for g, row in results.items()}
+
+
 def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list[tuple[str, str, str]]:
+    """``(thesis claim, ours, agrees?)`` rows for ``exp``: each claim on the faithful bars, then (where there
+    are strong bars) each claim again on the strong ones, marked ``[strong]``. ``standard`` is the standard
+    experiment's results (for the double-blind claims). See :func:`_claims`."""
+    rows = _claims(exp, family(results, False), family(standard, False) if standard else None)
+    strong = family(results, True)
+    if any(strong.values()):
+        rows += [("[strong] " + c, o, a) for c, o, a in _claims(exp, strong, family(standard, True)
+                                                                   if standard else None)]
+    return rows
+
+
+def _claims(exp: Experiment, results: dict, standard: dict | None = None) -> list[tuple[str, str, str]]:
     """``(thesis claim, ours, agrees?)`` rows for ``exp``; ``results[group][label]`` are :func:`summarize` dicts.
 
     ``agrees`` is ``"yes"``, ``"no"`` or ``"n/a"`` (a network is missing);
@@ -221,6 +268,13 @@ def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list
                 ok = None if ours is None else (abs(ours - pct) <= 5 if about else ours > pct)
                 rows.append((f"{label({'net': net, 'alpha': alpha})}: {'about' if about else 'above'} +{pct}% "
                              "episode reward over VNN (Fig. 5.6)", _fmt(ours, 1, "%"), yn(ok)))
+            chain = [_find(results, g, "vnn"), _find(results, g, "imnn"), _find(results, g, "emnn", 0.001),
+                     _find(results, g, "omn_conn")]
+            steps = [None if None in (a, b) else _clearly_above(results, g, b, results, g, a)
+                     for a, b in zip(chain, chain[1:])]
+            rows.append(("The ranking VNN < IMNN < EMNN < OMN+CoNN (Fig. 5.6: +9%, +17%, above +19%)",
+                         " < ".join("n/a" if lb is None else f"{lb} {_m(results, g, lb):.2f}" for lb in chain),
+                         yn(None if None in steps else all(steps))))
             omn = _find(results, g, "omn_conn")
             best, low_sd = _best(results, g), (min(results.get(g, {}), key=lambda lb: _sd(results, g, lb))
                                               if results.get(g) else None)
