@@ -135,6 +135,43 @@ def test_reward_area_cells_and_more_units():
         DCG(reward_area=2.0)
 
 
+def test_min_reward_area_mixes_sizes_uniformly_then_cells_uniformly():
+    """Each episode draws its square's size uniformly from m..S, then the item uniformly in that square, so a
+    cell's probability is the mean over sizes of 1/size^2 for the sizes whose square holds it."""
+    env = DCG(grid_size=N, reward_area=4, min_reward_area=2, history=2)
+    assert "min_reward_area=2" in repr(env) and env != DCG(grid_size=N, reward_area=4, history=2)
+    keys = jax.random.split(jax.random.PRNGKey(7), 20000)
+    _, s = jax.jit(jax.vmap(env.reset_env, in_axes=(0, None)))(keys, env.default_params)
+    items = np.asarray(s.items).reshape(len(keys), -1)
+    assert np.all(items.sum(-1) == 1.0)
+    r, c = np.divmod(np.arange(N * N), N)
+    expected = np.zeros(N * N)
+    for size in (2, 3, 4):
+        inside = (r >= N - size) & (c >= N - size)
+        expected[inside] += 1.0 / (3 * size * size)
+    counts = np.bincount(items.argmax(-1), minlength=N * N)
+    assert np.all(counts[expected == 0] == 0)
+    assert stats.chisquare(counts[expected > 0], expected[expected > 0] * len(keys)).pvalue > 1e-3
+    # several units per episode all land in the episode's one square
+    env = DCG(grid_size=N, reward_area=3, min_reward_area=1, total_reward=4, history=2)
+    _, s = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(jax.random.PRNGKey(2), 500), env.default_params)
+    items = np.asarray(s.items)
+    assert np.all(items.sum(axis=(1, 2)) == 4)
+    rows, cols = np.nonzero(items.sum(0))
+    assert rows.min() >= N - 3 and cols.min() >= N - 3
+
+
+@pytest.mark.parametrize("kwargs, error, message", [
+    ({"min_reward_area": 1}, ValueError, "needs a reward_area"),
+    ({"reward_area": 2, "min_reward_area": 3}, ValueError, r"between 1 and reward_area \(2\), got 3"),
+    ({"reward_area": 2, "min_reward_area": 0}, ValueError, "min_reward_area"),
+    ({"reward_area": 2, "min_reward_area": 1.5}, TypeError, "min_reward_area"),
+])
+def test_min_reward_area_refuses_bad_values(kwargs, error, message):
+    with pytest.raises(error, match=message):
+        DCG(grid_size=N, **kwargs)
+
+
 # -- observations: fog and history ------------------------------------------------------------
 
 

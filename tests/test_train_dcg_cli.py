@@ -113,6 +113,14 @@ def test_reward_area_training_is_recorded_and_replayed(tmp_path):
     assert "bottom-right 2x2 square" in learned.describe()
     # a run without the option records no reward_area, so runs made before it still resume
     assert "reward_area" not in cli.Run(cli.build_parser().parse_args(TINY + ["--out", out])).metadata
+    # --min-reward-area: a mix of sizes in training; a figure's size is played alone
+    run = cli.Run(cli.build_parser().parse_args(TINY + ["--reward-area", "3", "--min-reward-area", "1",
+                                                        "--out", str(tmp_path / "mix")]))
+    assert (run.env.reward_area, run.env.min_reward_area, run.metadata["min_reward_area"]) == (3, 1, 1)
+    learned = learned_lib.Learned("vnn", run.net, None, run.metadata, "test")
+    assert learned.game()[0].min_reward_area == 1 and "(sizes 1-3)" in learned.describe()
+    env, _ = learned.game(reward_area=2)
+    assert (env.reward_area, env.min_reward_area) == (2, None)
 
 
 @pytest.mark.parametrize("extra, match", [
@@ -132,6 +140,9 @@ def test_reward_area_training_is_recorded_and_replayed(tmp_path):
     (["--steps", "16"], "total_steps (16) must be >= num_envs * t_max (128)"),
     (["--reward-area", "0"], "--reward-area must be an integer >= 1"),
     (["--reward-area", "4"], "reward_area must be between 1 and grid_size (3), got 4"),
+    (["--min-reward-area", "1"], "min_reward_area=1 needs a reward_area"),
+    (["--reward-area", "2", "--min-reward-area", "3"], "min_reward_area must be between 1 and reward_area (2), got 3"),
+    (["--reward-area", "2", "--min-reward-area", "0"], "--min-reward-area must be an integer >= 1"),
 ])
 def test_bad_arguments(capsys, tmp_path, extra, match):
     _fails(capsys, TINY + ["--out", str(tmp_path / "x")] + extra, match)

@@ -86,6 +86,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--reward-area", type=positive_int("--reward-area"), default=None, metavar="S",
                    help="train on the game of section 5.5.5 (Figs. 5.10-5.12): one unit item uniform in the "
                         "bottom-right S x S square. Not in the thesis, which trains on the standard game only")
+    p.add_argument("--min-reward-area", type=positive_int("--min-reward-area"), default=None, metavar="M",
+                   help="with --reward-area S: each training episode draws its square's size uniformly from M..S "
+                        "(one network for every size; beyond the thesis)")
     p.add_argument("--strategies", default=",".join(STANDARD_STRATEGIES),
                    help="comma-separated opponent strategies, one drawn per episode")
     p.add_argument("--history", type=integer("--history"), default=10,
@@ -126,7 +129,8 @@ def make_env(args) -> tuple[DCG, object]:
     """The DCG of the run (section 5.5.1 settings by default) and its params; VNN's needs no history planes."""
     history_net = args.net != "vnn"
     env = DCG(grid_size=args.grid_size, total_reward=args.total_reward, strategies=args.strategies,
-              history=args.history if history_net else 1, obs_history=history_net, reward_area=args.reward_area)
+              history=args.history if history_net else 1, obs_history=history_net, reward_area=args.reward_area,
+              min_reward_area=args.min_reward_area)
     return env, env.make_params(energy=args.energy, max_steps=args.max_steps)
 
 
@@ -164,6 +168,8 @@ class Run(TrainingRun):
         }
         if args.reward_area is not None:  # only when set, so that runs made before the option still resume
             self.metadata["reward_area"] = args.reward_area
+        if args.min_reward_area is not None:
+            self.metadata["min_reward_area"] = args.min_reward_area
 
         def evaluate(params, key):
             k_ep, k_acc = jax.random.split(key)

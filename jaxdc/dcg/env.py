@@ -136,6 +136,12 @@ class DCG(Environment[EnvState, EnvParams]):
         bottom-right corner, rows and columns ``N-s .. N-1`` (the base only
         when ``s == N`` and ``items_on_base``). The opponent's start is drawn
         as without it, so it may start on the item.
+      min_reward_area: ``None`` (default: every episode uses ``reward_area``)
+        or a size ``m`` with ``1 <= m <= reward_area``: each episode first draws
+        its square's size uniformly from ``m .. reward_area``, then drops the
+        units over that square. A training distribution beyond the thesis (one
+        network for every reward-area size, docs/dcg.md), as the DCP's
+        ``min_total_reward`` is for the item count.
     """
 
     def __init__(
@@ -156,6 +162,7 @@ class DCG(Environment[EnvState, EnvParams]):
         safe_base: bool = False,
         opponent_enters_base: bool = True,
         caught_energy: str = "charged",
+        min_reward_area: int | None = None,
     ):
         self.grid_size = grid.check_grid_size(grid_size)
         if self.grid_size**2 > MAX_RANGE:
@@ -166,6 +173,14 @@ class DCG(Environment[EnvState, EnvParams]):
                 raise ValueError(
                     f"reward_area must be between 1 and grid_size ({self.grid_size}), got {reward_area}")
         self.reward_area = reward_area
+        if min_reward_area is not None:
+            if reward_area is None:
+                raise ValueError(f"min_reward_area={min_reward_area!r} needs a reward_area")
+            min_reward_area = _check_int("min_reward_area", min_reward_area, 1)
+            if min_reward_area > reward_area:
+                raise ValueError(f"min_reward_area must be between 1 and reward_area ({reward_area}), "
+                                 f"got {min_reward_area}")
+        self.min_reward_area = min_reward_area
         if total_reward is None:
             total_reward = 10 if reward_area is None else 1
         self.total_reward = _check_int("total_reward", total_reward, 1)
@@ -193,7 +208,7 @@ class DCG(Environment[EnvState, EnvParams]):
         return (self.grid_size, self.total_reward, self._strategies, self.history, self.obs_history,
                 self.history_fill, self.items_on_base, self.opponent_start, self.patrol_target,
                 self.reward_when_caught, self.energy_metric, self.reward_area, self.capture, self.safe_base,
-                self.opponent_enters_base, self.caught_energy)
+                self.opponent_enters_base, self.caught_energy, self.min_reward_area)
 
     def __repr__(self) -> str:
         return (
@@ -205,6 +220,7 @@ class DCG(Environment[EnvState, EnvParams]):
             + ("" if self.default_rules() else
                f", capture={self.capture!r}, safe_base={self.safe_base}, "
                f"opponent_enters_base={self.opponent_enters_base}, caught_energy={self.caught_energy!r}")
+            + ("" if self.min_reward_area is None else f", min_reward_area={self.min_reward_area}")
             + ")"
         )
 
@@ -257,6 +273,15 @@ class DCG(Environment[EnvState, EnvParams]):
             inside[0] = False
         return np.flatnonzero(inside).astype(np.int32)
 
+    def _reward_area_table(self):
+        """``(table, counts)`` for sizes ``min_reward_area .. reward_area``: the cells of each square
+        (:meth:`reward_area_cells`), padded to the largest, and how many each has."""
+        areas = [self.reward_area_cells(s) for s in range(self.min_reward_area, self.reward_area + 1)]
+        table = np.zeros((len(areas), max(a.size for a in areas)), np.int32)
+        for i, a in enumerate(areas):
+            table[i, : a.size] = a
+        return jnp.asarray(table), jnp.asarray([a.size for a in areas], jnp.int32)
+
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, 2 + (self.history if self.obs_history else 0))
 
@@ -267,6 +292,12 @@ class DCG(Environment[EnvState, EnvParams]):
         k_items, k_opp, k_target, k_strat = jax.random.split(key, 4)
         if self.reward_area is None:
             items, _ = drop_units(k_items, self.total_reward, cells, 0 if self.items_on_base else 1)
+        elif self.min_reward_area is not None:  # a size per episode, then the drop over its square
+            k_size, k_drop = jax.random.split(k_items)
+            table, counts = self._reward_area_table()
+            size = uniform_index(k_size, (), counts.size)
+            where = table[size][uniform_index(k_drop, (self.total_reward,), counts[size])]
+            items = jnp.zeros(cells, jnp.float32).at[where].add(1.0)
         else:  # the reward area (section 5.5.5): the drop over its cells
             area = self.reward_area_cells()
             area_items, _ = drop_units(k_items, self.total_reward, area.size)

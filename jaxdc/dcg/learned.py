@@ -36,7 +36,7 @@ DEFAULT_SETTING = {"grid_size": 5, "total_reward": 10, "energy": 15.0, "max_step
                    "strategies": list(STANDARD_STRATEGIES), "history": 10, "chase_tie": "straight"}
 #: ``DCG(...)`` options that change the dynamics, taken from the metadata (``"env"`` or top level) when present.
 ENV_OPTION_KEYS = ("history_fill", "items_on_base", "opponent_start", "patrol_target", "reward_when_caught",
-                   "energy_metric", "reward_area")
+                   "energy_metric", "reward_area", "min_reward_area")
 
 
 def make_network(name: str, history: int = 10):
@@ -96,8 +96,9 @@ class Learned:
         meta_env = self.metadata.get("env", {})
         options = {k: meta_env.get(k, self.metadata.get(k)) for k in ENV_OPTION_KEYS}
         options = {k: v for k, v in options.items() if v is not None}
-        if reward_area is not None:
+        if reward_area is not None:  # one size: the game of that figure, not the training mix
             options["reward_area"] = reward_area
+            options.pop("min_reward_area", None)
         # train.dcg plays VNN without history planes (metadata history 0); VNN reads obs[..., :2] either way
         k = int(s["history"])
         obs_history = bool(self.metadata.get("obs_history", k > 0))
@@ -123,6 +124,7 @@ class Learned:
         return (f"{self.net_name}{f' (alpha {alpha:g})' if self.net_name == 'emnn' and alpha is not None else ''} "
                 f"trained on {s['grid_size']}x{s['grid_size']}, {s['total_reward']} rewards"
                 + (f" in the bottom-right {area}x{area} square" if (area := self.metadata.get("reward_area")) else "")
+                + (f" (sizes {m}-{area})" if (m := self.metadata.get("min_reward_area")) else "")
                 + f", energy {s['energy']:g}, "
                 f"strategies {','.join(s['strategies'])}, history {s['history']}, "
                 f"{self.steps or '?'} steps, seed {self.metadata.get('seed', '?')} ({self.source})")
