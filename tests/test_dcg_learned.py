@@ -14,11 +14,10 @@ from jaxdc.dcg.evaluate import evaluate_network, summarize
 from jaxdc.dcg.learned import shipped, shipped_names
 from train import dcg as train_dcg
 
-#: The recipe of docs/dcg.md: the PPO-style options at lr 1e-3, 3M steps.
-RECIPE = {"total_steps": 3_000_000, "num_envs": 32, "t_max": 32, "lr": 1e-3, "clip_eps": 0.2, "epochs": 4,
+#: The recipe of docs/dcg.md: the PPO-style options at lr 1e-3, 3M steps (``NET_strong``) or 1M (``NET_strong_1m``).
+RECIPE = {"num_envs": 32, "t_max": 32, "lr": 1e-3, "clip_eps": 0.2, "epochs": 4,
           "minibatches": 4, "gae_lambda": 0.95, "normalize_advantages": True, "reset_slots": 4}
-STRONG = [n for n in ("vnn_strong", "imnn_strong", "emnn_strong", "omn_conn_strong")
-          if os.path.exists(os.path.join(pretrained.ASSETS, "dcg", n + ".msgpack"))]
+STRONG = [f"{net}_strong{tag}" for tag in ("", "_1m") for net in ("vnn", "imnn", "emnn", "omn_conn")]
 
 
 def test_vnn_strong_is_shipped():
@@ -30,7 +29,8 @@ def test_strong_networks_record_the_recipe_and_their_command(name):
     learned = shipped(name)
     algo = learned.metadata["algorithm"]
     assert {k: algo[k] for k in RECIPE} == RECIPE
-    assert learned.metadata["seed"] == 0 and learned.net_name == name.removesuffix("_strong")
+    assert algo["total_steps"] == (1_000_000 if name.endswith("_1m") else 3_000_000)
+    assert learned.metadata["seed"] == 0 and learned.net_name == name.removesuffix("_1m").removesuffix("_strong")
     argv = shlex.split(learned.metadata["command"])[3:]  # after "python -m train.dcg"
     args = train_dcg.build_parser().parse_args(argv)
     assert (args.net, args.seed, args.ship) == (learned.net_name, 0, f"jaxdc/assets/dcg/{name}.msgpack")

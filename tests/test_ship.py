@@ -44,3 +44,33 @@ def test_every_shipped_file_records_the_command_its_entry_gives():
     for name in ship.ALL:
         recorded = pretrained.read_metadata(pretrained.shipped("dcp", name))["command"]
         assert recorded == " ".join(ship.train_command(name, 1_000_000, 0, "runs/ship")), name
+
+
+def test_every_strong_dcg_file_has_an_entry_whose_command_trains_it():
+    """Each shipped ``*_strong*`` DCG file is a ``train.ship`` entry, and the command recorded in its .json sets
+    every train.dcg option as the entry's command does (the run folder aside)."""
+    import os
+    import shlex
+
+    from jaxdc import pretrained
+    from train import dcg as train_dcg
+
+    folder = os.path.join(pretrained.ASSETS, "dcg")
+    files = {f[: -len(".msgpack")] for f in os.listdir(folder) if f.endswith(".msgpack") and "_strong" in f}
+    assert files == set(ship.DCG_STRONG)
+    parse = train_dcg.build_parser().parse_args
+    for name in sorted(files):
+        recorded = vars(parse(shlex.split(pretrained.read_metadata(os.path.join(folder, name + ".msgpack"))
+                                          ["command"])[3:]))
+        entry = vars(parse(ship.train_command(name, 1_000_000, 0, "runs/ship")[3:]))
+        assert entry.pop("out") == f"runs/ship/{name}" and recorded.pop("out")
+        assert recorded == entry, name
+        assert entry["ship"] == f"jaxdc/assets/dcg/{name}.msgpack"
+
+
+def test_export_only_refuses_the_dcg_entries(capsys):
+    import pytest
+
+    with pytest.raises(SystemExit) as e:
+        ship.main(["--export-only", "--only", "vnn_strong"])
+    assert e.value.code == 2 and "written by train.dcg --ship" in capsys.readouterr().err

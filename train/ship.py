@@ -1,4 +1,5 @@
-"""Regenerate the shipped DCP parameters (``jaxdc/assets/dcp``): train with ``train.dcp``, then export.
+"""Regenerate the shipped parameters: the DCP's (``jaxdc/assets/dcp``, train with ``train.dcp``, then export)
+and the strong DCG collectors (``jaxdc/assets/dcg/*_strong*``, ``train.dcg --ship``).
 
     python -m train.ship                      # all of them (6 runs of 1M steps, 2 at a time)
     python -m train.ship --only enn eqn       # some of them
@@ -7,6 +8,7 @@
     python -m train.ship --only enn_long          # Table 4.3's ENN trained 16M steps (beyond the thesis)
     python -m train.ship --only enn_mix           # one 1M-step ENN for Tables 4.3, 4.6, 4.8 (beyond the thesis)
     python -m train.ship --only enn_ppo enn_ppo_low enn_ppo_energy16_32 enn_ppo_mix   # the PPO-style option, 1M steps
+    python -m train.ship --only vnn_strong omn_conn_strong    # strong DCG collectors (docs/dcg.md, 3M steps)
 
 Each shipped network is trained with the defaults of ``python -m train.dcp``
 (the thesis' hyper-parameters, section 4.5), seed 0, 1M steps, in the
@@ -67,16 +69,31 @@ BEYOND.update({  # the setting of the faithful ENN of the same tables, then the 
     "enn_ppo_mix": ("4.3, 4.6, 4.8 (beyond the thesis: the PPO-style option, 1..30 units per training episode)",
                     [*SHIPPED["enn"][1], "--min-total-reward", "1", *PPO]),
 })
+#: The strong DCG collectors (docs/dcg.md, "Strong collectors"; beyond the thesis): the PPO-style options at
+#: lr 1e-3, 3M steps (``NET_strong``) and the same recipe at the thesis' 1M steps (``NET_strong_1m``, Fig. 5.6).
+#: ``train.dcg --ship`` writes each file itself.
+DCG_STRONG_RECIPE = ["--envs", "32", "--t-max", "32", "--lr", "1e-3", "--clip-eps", "0.2", "--epochs", "4",
+                     "--minibatches", "4", "--gae-lambda", "0.95", "--normalize-advantages", "--reset-slots", "4",
+                     "--eval-every", "1000000", "--eval-episodes", "2000"]
+DCG_STRONG = {f"{net}_strong{tag}": (figures, ["--net", net, "--steps", steps, *DCG_STRONG_RECIPE])
+              for net in ("vnn", "imnn", "emnn", "omn_conn")
+              for tag, steps, figures in (("", "3000000", "5.11, 5.16 (beyond the thesis: the strong recipe, 3M)"),
+                                          ("_1m", "1000000", "5.6 (beyond the thesis: the strong recipe, 1M)"))}
 ALL = {**SHIPPED, **BEYOND}
+EVERY = {**ALL, **DCG_STRONG}
 
 
 def train_command(name: str, steps: int, seed: int, runs: str) -> list[str]:
-    """The ``python -m train.dcp`` command line that trains shipped network ``name``.
+    """The ``python -m train.dcp`` (or, for a DCG entry, ``train.dcg``) command line that trains shipped
+    network ``name``.
 
     ``steps`` applies unless the entry fixes its own ``--steps`` (the beyond-the-thesis networks).
     """
-    args = ALL[name][1]
+    args = EVERY[name][1]
     own_steps = [] if "--steps" in args else ["--steps", str(steps)]
+    if name in DCG_STRONG:
+        return ["python", "-m", "train.dcg", *args, "--no-progress", "--seed", str(seed),
+                "--out", os.path.join(runs, name), "--ship", f"jaxdc/assets/dcg/{name}.msgpack"]
     return ["python", "-m", "train.dcp", *args, *own_steps, "--seed", str(seed),
             "--out", os.path.join(runs, name), "--no-progress"]
 
@@ -118,7 +135,7 @@ def main(argv=None) -> int:
     from jaxdc.pretrained import ASSETS
 
     p = argparse.ArgumentParser(prog="python -m train.ship", description=__doc__.split("\n")[0])
-    p.add_argument("--only", nargs="+", choices=sorted(ALL), default=None,
+    p.add_argument("--only", nargs="+", choices=sorted(EVERY), default=None,
                    help=f"names to regenerate (default: {', '.join(SHIPPED)})")
     p.add_argument("--steps", type=positive_int("--steps"), default=1_000_000,
                    help="environment steps per run (thesis: 1M; enn_single_item and enn_long have their own)")
@@ -133,6 +150,9 @@ def main(argv=None) -> int:
     if args.jobs < 1:
         p.error(f"--jobs must be >= 1, got {args.jobs}")
     names = args.only or list(SHIPPED)
+    if args.export_only and any(n in DCG_STRONG for n in names):
+        p.error(f"--export-only: {', '.join(n for n in names if n in DCG_STRONG)} are written by train.dcg --ship; "
+                "train them (a finished run folder is resumed)")
     commands = {n: train_command(n, args.steps, args.seed, args.runs) for n in names}
     t0 = time.perf_counter()
     if not args.export_only:
@@ -159,6 +179,8 @@ def main(argv=None) -> int:
             print(f"error: training failed for {failed}; see {args.runs}/<name>.log", file=sys.stderr)
             return 1
     for n in names:
+        if n in DCG_STRONG:  # train.dcg --ship wrote it
+            continue
         try:
             path = export(n, os.path.join(args.runs, n), commands[n], args.out)
         except ValueError as e:
