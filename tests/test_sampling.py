@@ -52,3 +52,13 @@ def test_drop_units_count_keeps_the_first_draws():
     # the kept units are draws 0..3 of the full drop: the same cells, the same first-drop order
     assert sorted(part_first[part > 0]) == sorted(full_first[full_first < 4])
     assert np.all(part_first[part == 0] == 30)
+
+
+@pytest.mark.parametrize("n", [1, 2, 64, 1024, 1025, 4096])
+def test_running_count_equals_cumsum(n):
+    from jaxdc.core.sampling import running_count
+
+    masks = jax.random.bernoulli(jax.random.PRNGKey(n), 0.7, (8, n))
+    got = jax.vmap(running_count)(masks)
+    assert got.dtype == jnp.int32
+    np.testing.assert_array_equal(np.asarray(got), np.cumsum(np.asarray(masks), axis=-1))

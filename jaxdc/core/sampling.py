@@ -39,3 +39,20 @@ def drop_units(key, units: int, cells: int, low: int = 0, count=None):
     counts = jnp.zeros(cells, jnp.float32).at[where].add(kept.astype(jnp.float32))
     first = jnp.full(cells, units, jnp.int32).at[where].min(jnp.where(kept, index, units))
     return counts, first
+
+
+#: The longest mask :func:`running_count` counts with a triangular product (a 4 MiB matrix); longer: ``cumsum``.
+RUNNING_COUNT_MATMUL_MAX = 1024
+
+
+def running_count(mask):
+    """``cumsum(mask)`` of a 1-D boolean mask as int32, as one product with a triangular matrix of ones.
+
+    Exact (the counts are small integers, far below float32's 2**24), and on CPU much faster than
+    ``jnp.cumsum`` under ``vmap``, which XLA lowers to a windowed reduction.
+    """
+    n = mask.shape[-1]
+    if n > RUNNING_COUNT_MATMUL_MAX:  # the n x n matrix would be too large: XLA's cumsum
+        return jnp.cumsum(mask, dtype=jnp.int32)
+    upper = jnp.triu(jnp.ones((n, n), jnp.float32))
+    return jnp.matmul(mask.astype(jnp.float32), upper, precision=jax.lax.Precision.HIGHEST).astype(jnp.int32)

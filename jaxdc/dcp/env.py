@@ -31,7 +31,7 @@ from flax import struct
 
 from jaxdc.core import grid
 from jaxdc.core.env import Environment
-from jaxdc.core.sampling import MAX_RANGE, drop_units, uniform_index
+from jaxdc.core.sampling import MAX_RANGE, drop_units, running_count, uniform_index
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
 OUTCOMES = ("running", "risk", "energy", "cleared", "idle", "truncated")
@@ -194,9 +194,11 @@ class DCP(Environment[EnvState, EnvParams]):
         else:  # random_free: the k-th free cell for k uniform; any cell if none is free
             free = items == 0
             free = jnp.where(free.any(), free, True)
-            count = jnp.cumsum(free)
+            count = running_count(free)
             k = uniform_index(k_start, (), count[-1])
-            flat = jnp.searchsorted(count, k, side="right").astype(jnp.int32)
+            # the first cell whose running count exceeds k (searchsorted(count, k, "right"), as a sum: a
+            # vectorised compare instead of a per-environment binary search)
+            flat = jnp.sum(count <= k, dtype=jnp.int32)
         state = EnvState(
             pos=jnp.stack([flat // n, flat % n]).astype(jnp.int32),
             energy=params.init_energy,
