@@ -79,6 +79,11 @@ DCG_STRONG = {f"{net}_strong{tag}": (figures, ["--net", net, "--steps", steps, *
               for net in ("vnn", "imnn", "emnn", "omn_conn")
               for tag, steps, figures in (("", "3000000", "5.11, 5.16 (beyond the thesis: the strong recipe, 3M)"),
                                           ("_1m", "1000000", "5.6 (beyond the thesis: the strong recipe, 1M)"))}
+#: One OMN+CoNN for every reward-area size (Fig. 5.11; beyond the thesis): the recipe for 5M steps on one item in
+#: a square whose size each episode draws from 1..4 (``--min-reward-area``).
+DCG_STRONG["omn_conn_strong_areas"] = (
+    "5.11 (beyond the thesis: one network for reward-area sizes 1-4)",
+    ["--net", "omn_conn", "--steps", "5000000", *DCG_STRONG_RECIPE, "--reward-area", "4", "--min-reward-area", "1"])
 ALL = {**SHIPPED, **BEYOND}
 EVERY = {**ALL, **DCG_STRONG}
 
