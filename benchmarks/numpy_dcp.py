@@ -132,3 +132,108 @@ def random_rollout(env: NumpyDCP, rng: np.random.Generator, steps: int) -> float
     for a in rng.integers(0, grid.NUM_ACTIONS, size=steps):
         total += env.step(rng, int(a))[1]
     return total
+
+
+def plain_loop(rng: np.random.Generator, steps: int, risk="high", energy=(8.0, 16.0), max_steps: int = 200,
+               grid_size: int = 8, total_reward: int = 30) -> float:
+    """``steps`` auto-reset random-policy steps of one DCP, written as a plain NumPy user would (the
+    ``numpy_loop`` row): Python ints for the position, one flat item array, the observation updated in
+    place, random numbers drawn in blocks. The rules are :class:`NumpyDCP`'s; returns the total reward."""
+    n = int(grid_size)
+    cells = n * n
+    risk_flat = np.asarray(grid.as_risk_map(risk, n), np.float64).reshape(-1).tolist()
+    init_e, max_e = (float(e) for e in energy)
+    deltas = [(int(dr), int(dc)) for dr, dc in DELTAS]
+    obs = np.zeros((n, n, 2), np.float32)
+    items_view = obs[..., 0].reshape(-1)  # the item plane is the state
+    agent_view = obs[..., 1]
+    actions = rng.integers(0, grid.NUM_ACTIONS, size=steps).tolist()
+    coins = rng.random(steps).tolist()
+
+    def reset():
+        items_view[:] = np.bincount(rng.integers(0, cells, size=total_reward), minlength=cells)
+        free = np.flatnonzero(items_view == 0)
+        flat = int(rng.choice(free)) if free.size else int(rng.integers(cells))
+        return flat // n, flat % n, init_e, 0, int(np.count_nonzero(items_view))
+
+    r, c, e, t, left = reset()
+    total = 0.0
+    for a, u in zip(actions, coins):
+        agent_view[r, c] = 0.0
+        dr, dc = deltas[a]
+        r, c = min(max(r + dr, 0), n - 1), min(max(c + dc, 0), n - 1)
+        flat = r * n + c
+        reward = float(items_view[flat])
+        if reward:
+            items_view[flat] = 0.0
+            left -= 1
+            total += reward
+        in_base = flat == 0
+        e = max_e if in_base else max(e - 1.0, 0.0)
+        t += 1
+        if u < risk_flat[flat] or (not in_base and e <= 0) or left == 0 or t >= max_steps:
+            r, c, e, t, left = reset()
+        agent_view[r, c] = e
+    return total
+
+
+class BatchedNumpyDCP:
+    """``batch`` DCPs stepped at once in NumPy (the ``numpy_batched`` row): :class:`NumpyDCP`'s rules over
+    arrays whose leading axis is the batch; only the environments that finished are reset."""
+
+    def __init__(self, batch: int, risk="high", energy=(8.0, 16.0), max_steps: int = 200, grid_size: int = 8,
+                 total_reward: int = 30):
+        self.b, self.n = int(batch), int(grid_size)
+        self.cells = self.n * self.n
+        self.risk = np.asarray(grid.as_risk_map(risk, self.n), np.float64).reshape(-1)
+        self.init_energy, self.max_energy = (float(e) for e in energy)
+        self.max_steps, self.total_reward = int(max_steps), int(total_reward)
+        self.items = np.zeros((self.b, self.cells))
+        self.flat = np.zeros(self.b, np.int64)
+        self.energy = np.zeros(self.b)
+        self.time = np.zeros(self.b, np.int64)
+
+    def reset(self, rng: np.random.Generator, idx: np.ndarray) -> None:
+        """Fresh initial states for the environments ``idx``."""
+        k = idx.size
+        if k == 0:
+            return
+        where = rng.integers(0, self.cells, size=(k, self.total_reward)) + self.cells * np.arange(k)[:, None]
+        items = np.bincount(where.reshape(-1), minlength=k * self.cells).reshape(k, self.cells).astype(np.float64)
+        free = items == 0
+        free[~free.any(1)] = True
+        count = np.cumsum(free, axis=1)
+        pick = (rng.random(k) * count[:, -1]).astype(np.int64)
+        self.items[idx] = items
+        self.flat[idx] = (count <= pick[:, None]).sum(1)
+        self.energy[idx] = self.init_energy
+        self.time[idx] = 0
+
+    def step(self, rng: np.random.Generator, action: np.ndarray):
+        """One auto-reset step of every environment: ``(obs, reward, done)``."""
+        n, rows = self.n, np.arange(self.b)
+        d = DELTAS[action]
+        r = np.clip(self.flat // n + d[:, 0], 0, n - 1)
+        c = np.clip(self.flat % n + d[:, 1], 0, n - 1)
+        self.flat = r * n + c
+        reward = self.items[rows, self.flat].copy()
+        self.items[rows, self.flat] = 0.0
+        hit = rng.random(self.b) < self.risk[self.flat]
+        in_base = self.flat == 0
+        self.energy = np.where(in_base, self.max_energy, np.maximum(self.energy - 1.0, 0.0))
+        self.time += 1
+        done = hit | (~in_base & (self.energy <= 0)) | ~(self.items > 0).any(1) | (self.time >= self.max_steps)
+        self.reset(rng, np.flatnonzero(done))
+        obs = np.zeros((self.b, self.cells, 2), np.float32)
+        obs[..., 0] = self.items
+        obs[rows, self.flat, 1] = self.energy
+        return obs.reshape(self.b, n, n, 2), reward, done
+
+
+def batched_rollout(env: BatchedNumpyDCP, rng: np.random.Generator, steps: int) -> float:
+    """``steps`` random-policy steps of every environment of ``env``; returns the total reward."""
+    env.reset(rng, np.arange(env.b))
+    total = 0.0
+    for _ in range(steps):
+        total += float(env.step(rng, rng.integers(0, grid.NUM_ACTIONS, size=env.b))[1].sum())
+    return total

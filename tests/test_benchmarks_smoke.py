@@ -115,7 +115,7 @@ def test_benchmark_main_quick(tmp_path, capsys):
     impls = [(r["impl"], r["batch"]) for r in result["rows"]]
     slots = "jax_random [reset_slots=B/4]"
     assert impls == [("jax_random", 1), (slots, 1), ("jax_random", 4), (slots, 4), ("jax_safe_reward", 1),
-                     ("jax_dcg_random", 1), ("numpy_random", 1)]
+                     ("jax_dcg_random", 1), ("jax_handbatched", 1), ("numpy_batched", 1), ("numpy_loop", 1)]
     for r in result["rows"]:
         assert r["steps_per_s"] > 0 and r["env_steps"] == r["batch"] * r["steps"]
         assert set(r) >= {"impl", "batch", "steps", "seconds", "compile_s", "steps_per_s", "vs_numpy"}
@@ -126,12 +126,15 @@ def test_benchmark_main_quick(tmp_path, capsys):
 
     # The Table 4.3 and target sections, on a synthetic result (compiling them costs ~20 s).
     fake = dict(result)
-    fake["rows"] = result["rows"] + [dict(result["rows"][0], batch=4096)]
+    fake["rows"] = result["rows"] + [dict(r, batch=4096, steps_per_s=v) for r, v in
+                                     ((result["rows"][0], 3.0), (result["rows"][-3], 4.0), (result["rows"][-2], 2.0))]
     fake["table43"] = {"episodes": 10_000, "compile_s": 4.0, "run_s": 2.0,
                        "navigators": {n: {"compile_s": 1.0, "run_s": 0.5, "episode_steps": 10}
                                       for n in env_throughput.TABLE43_NAVIGATORS}}
     fake["targets"] = env_throughput.targets(fake)
     assert fake["targets"]["table43_lt_5s"]["met"] and "random_4096_ge_5M" in fake["targets"]
+    assert fake["targets"]["random_4096_share_of_handbatched"]["value"] == 0.75
+    assert fake["targets"]["random_4096_over_numpy_batched"] == {"value": 1.5, "target": 1.0, "met": True}
     md = env_throughput.markdown(fake)
     assert "| **total** | 4.00 | 2.000 |" in md and "table43_lt_5s" in md
 
@@ -216,3 +219,21 @@ def test_train_throughput_sb3_child_jaxvec():
 
 if __name__ == "__main__":
     raise SystemExit(pytest.main([__file__, "-q"]))
+
+
+def test_the_baselines_play_the_library_rules():
+    """The yardsticks of env_throughput.py collect the same mean reward per step as the library's DCP under a
+    random policy (200k steps each; a rule left out, e.g. the risk or the refill, moves it by far more)."""
+    from benchmarks import handbatched_dcp
+    from jaxdc.core import grid
+
+    env, params = env_throughput.make_env("dcp")
+    lib = float(env_throughput.make_rollout(env, params, 500, 400, "random")(jax.random.PRNGKey(3))[2]) / 200_000
+    hand = handbatched_dcp.make_rollout(grid.as_risk_map("high", 8), (8.0, 16.0), 200, 30, 500, 400)
+    rates = {"jax_handbatched": float(hand(jax.random.PRNGKey(4))[1]) / 200_000,
+             "numpy_batched": numpy_dcp.batched_rollout(numpy_dcp.BatchedNumpyDCP(500), np.random.default_rng(5),
+                                                        400) / 200_000,
+             "numpy_loop": numpy_dcp.plain_loop(np.random.default_rng(6), 200_000) / 200_000}
+    assert 0.2 < lib < 0.4
+    for name, rate in rates.items():
+        assert abs(rate - lib) < 0.015, (name, rate, lib)
