@@ -37,7 +37,7 @@ import time
 
 import numpy as np
 
-from jaxdc.cli import positive_float, positive_int
+from jaxdc.cli import positive_float, positive_int, unit_interval
 from jaxdc.core import grid
 from jaxdc.core.paths import PATH_RISK
 from jaxdc.dcp import env as dcp_env
@@ -50,16 +50,6 @@ from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
 COLUMNS = (("reward", 0), ("energy", 2), ("rpe", 4))
 #: Settings of a heuristic evaluation when not given (a learned one takes them from its metadata).
 DEFAULTS = {"risk": "high", "total_reward": 30, "energy": (8.0, 16.0), "max_steps": 1000}
-
-
-def _probability(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--epsilon must be a number in [0, 1], got {text!r}") from None
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"--epsilon must be in [0, 1], got {text!r}")
-    return value
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -76,7 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="--checkpoint of a train.dcp --seeds run: the seed whose network to evaluate")
     p.add_argument("--greedy", action="store_true",
                    help="learned policy: argmax instead of sampling (EQN: epsilon 0)")
-    p.add_argument("--epsilon", type=_probability, default=learned_lib.EQN_EPSILON,
+    p.add_argument("--epsilon", type=unit_interval("--epsilon"), default=learned_lib.EQN_EPSILON,
                    help="EQN's evaluation epsilon (section 4.5.5: 0.05)")
     p.add_argument("--no-learned", action="store_true", help="--table: navigator rows only")
     p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default=None,

@@ -21,6 +21,8 @@ import numpy as np
 import orbax.checkpoint as ocp
 from flax import serialization
 
+from jaxdc.core.tree_check import mismatch
+
 
 def _manager(directory, keep: int | None = None) -> ocp.CheckpointManager:
     options = ocp.CheckpointManagerOptions(max_to_keep=keep, enable_async_checkpointing=False, create=True)
@@ -79,7 +81,7 @@ def restore(directory, target, expected: dict | None = None, step: int | None = 
             tree = mngr.restore(step, args=ocp.args.Composite(state=ocp.args.StandardRestore())).state
     except Exception as e:
         raise ValueError(f"checkpoint {directory} step {step}: state unreadable (corrupt?): {e}") from e
-    _check_like(tree, template, f"checkpoint {directory} step {step}")
+    _check_state(tree, template, f"checkpoint {directory} step {step}")
     tree = jax.tree_util.tree_map(lambda t, x: np.asarray(x, dtype=np.asarray(t).dtype), template, tree)
     return serialization.from_state_dict(target, tree), metadata
 
@@ -104,22 +106,15 @@ def _jsonish(x):
     return x
 
 
-def _check_like(tree, template, where: str):
-    flat_t = dict(_flatten(template))
-    flat_x = dict(_flatten(tree))
-    if flat_t.keys() != flat_x.keys():
-        missing = sorted(set(flat_t) - set(flat_x))[:5]
-        extra = sorted(set(flat_x) - set(flat_t))[:5]
-        raise ValueError(f"{where} has another structure (missing {missing}, unexpected {extra})")
-    for k, t in flat_t.items():
-        x = flat_x[k]
-        if np.shape(x) != np.shape(t):
-            raise ValueError(f"{where}: {k} has shape {np.shape(x)}, expected {np.shape(t)}")
+def _slash_path(path) -> str:
+    """A state-dict leaf path as ``/key/key``."""
+    return "".join(f"/{getattr(k, 'key', k)}" for k in path)
 
 
-def _flatten(tree, prefix=""):
-    if isinstance(tree, dict):
-        for k, v in tree.items():
-            yield from _flatten(v, f"{prefix}/{k}")
-    else:
-        yield prefix, tree
+def _check_state(tree, template, where: str):
+    """``ValueError`` unless the restored state dict ``tree`` has the leaves and shapes of ``template``."""
+    m = mismatch(template, tree, key=_slash_path)
+    if m is not None and m.key is None:
+        raise ValueError(f"{where} has another structure (missing {m.missing[:5]}, unexpected {m.unexpected[:5]})")
+    if m is not None:
+        raise ValueError(f"{where}: {m.key} has shape {m.got}, expected {m.want}")

@@ -10,12 +10,16 @@ The shipped files live in ``jaxdc/assets/<problem>/<name>.msgpack``;
 :func:`shipped` finds one by name. :func:`load` checks the metadata against
 what the caller expects and raises a ``ValueError`` naming the mismatch, so a
 DCG file is never applied to a DCP network, nor an ENN file to EQN.
+:class:`Learned` is the record both problems load into; each problem's
+subclass adds how to read the setting of training from the metadata.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -25,6 +29,21 @@ from flax import serialization
 from jaxdc.io import atomic_write, atomic_write_json
 
 ASSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "assets")
+
+
+@dataclasses.dataclass(frozen=True)
+class Learned:
+    """A trained network with its parameters and the metadata of how it was trained (whatever the source).
+
+    ``jaxdc.dcp.learned.Learned`` and ``jaxdc.dcg.learned.Learned`` subclass it
+    with the problem's setting (``setting()``) and environment.
+    """
+
+    net_name: str
+    net: Any  # a flax module (jaxdc.nets)
+    params: Any
+    metadata: dict
+    source: str
 
 
 def _paths(path) -> tuple[str, str]:

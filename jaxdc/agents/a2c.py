@@ -47,6 +47,7 @@ import optax
 from flax import struct
 
 from jaxdc.core.env import step_batch
+from jaxdc.core.validate import check_positive_int
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,9 +118,7 @@ class A2CConfig:
 
     def __post_init__(self):
         for name in ("total_steps", "num_envs", "t_max", "unroll", "epochs", "minibatches"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ValueError(f"{name} must be an int >= 1, got {v!r}")
+            check_positive_int(name, getattr(self, name), numpy=False)
         if not self.lr > 0:
             raise ValueError(f"lr (learning rate) must be > 0, got {self.lr!r}")
         if self.aux_lr is not None and not self.aux_lr > 0:
@@ -232,7 +231,13 @@ def nstep_returns(rewards, terminated, truncated, final_values, last_value, gamm
 
 
 def huber(x, delta: float = 1.0):
-    """Huber loss of section 4.4.3: ``0.5 x^2`` if ``|x| <= delta``, else ``delta (|x| - 0.5 delta)``."""
+    """Huber loss of section 4.4.3: ``0.5 x^2`` if ``|x| <= delta``, else ``delta (|x| - 0.5 delta)``.
+
+    The same values as ``optax.huber_loss`` (for ``|x| < 2**24``), but not the same
+    gradient: optax writes it as ``0.5 min(|x|, delta)**2 + delta (|x| - min(|x|, delta))``,
+    whose backward pass differs in the last bit, so training with it ends on other
+    parameters than the runs that made the shipped networks. Kept for bit-identical training.
+    """
     ax = jnp.abs(x)
     return jnp.where(ax <= delta, 0.5 * x * x, delta * (ax - 0.5 * delta))
 
@@ -279,7 +284,12 @@ def make_optimizer(config: A2CConfig, aux_params=None):
 
 
 def aux_cross_entropy(aux_logits, targets):
-    """Eq. 5.1: mean cross-entropy ``-log p(o_t)`` of the auxiliary head, and its accuracy (argmax = target)."""
+    """Eq. 5.1: mean cross-entropy ``-log p(o_t)`` of the auxiliary head, and its accuracy (argmax = target).
+
+    ``optax.softmax_cross_entropy_with_integer_labels`` (``logsumexp - logit``) gives the
+    same mean here but gradients that differ in the last bit, which changes training;
+    this ``log_softmax`` form is kept for bit-identical training.
+    """
     logp = jax.nn.log_softmax(aux_logits)
     ce = -jnp.mean(jnp.take_along_axis(logp, targets[:, None], axis=-1)[:, 0])
     return ce, jnp.mean(jnp.argmax(aux_logits, axis=-1) == targets)

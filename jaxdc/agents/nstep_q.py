@@ -31,6 +31,7 @@ from flax import struct
 
 from jaxdc.agents.a2c import A2CConfig, Trainer, Transition, heuristics_fn, huber, make_optimizer, nstep_returns
 from jaxdc.core.env import tree_select
+from jaxdc.core.validate import is_int
 
 #: Epsilon of the evaluation policy (section 4.5.5).
 EVAL_EPSILON = 0.05
@@ -52,7 +53,7 @@ class QConfig(A2CConfig):
                 raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)!r}")
         if not 0 < self.eps_fraction <= 1:
             raise ValueError(f"eps_fraction must be in (0, 1], got {self.eps_fraction!r}")
-        if isinstance(self.target_every, bool) or not isinstance(self.target_every, int) or self.target_every < 1:
+        if not is_int(self.target_every, numpy=False) or self.target_every < 1:
             raise ValueError(f"target_every must be an int >= 1 (environment steps), got {self.target_every!r}")
 
     @property

@@ -36,6 +36,7 @@ from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
 from jaxdc.agents.a2c import Trainer
+from jaxdc.core.validate import is_int
 
 #: The mesh axis the environment batch is split along.
 DATA_AXIS = "data"
@@ -47,7 +48,7 @@ def data_mesh(num_devices: int | None = None) -> Mesh:
     """A one-axis mesh (``"data"``) over the first ``num_devices`` devices (all of them if ``None``)."""
     devices = jax.devices()
     n = len(devices) if num_devices is None else num_devices
-    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= len(devices):
+    if not is_int(n, numpy=False) or not 1 <= n <= len(devices):
         raise ValueError(f"num_devices must be an int in [1, {len(devices)}] (the devices JAX sees: "
                          f"{len(devices)} {devices[0].platform}), got {num_devices!r}")
     return Mesh(np.asarray(devices[:n]), (DATA_AXIS,))
@@ -84,7 +85,7 @@ def parallelize(trainer: Trainer, mesh: Mesh | None = None, num_seeds: int | Non
     """
     mesh = data_mesh() if mesh is None else mesh
     check_divisible(trainer.config.num_envs, mesh.devices.size)
-    if num_seeds is not None and (isinstance(num_seeds, bool) or not isinstance(num_seeds, int) or num_seeds < 1):
+    if num_seeds is not None and (not is_int(num_seeds, numpy=False) or num_seeds < 1):
         raise ValueError(f"num_seeds must be an int >= 1 or None, got {num_seeds!r}")
     vm = (lambda f: f) if num_seeds is None else jax.vmap
     key_shape = jax.eval_shape(jax.random.PRNGKey, 0)

@@ -11,8 +11,12 @@ outside jit.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import jax.numpy as jnp
+
+from jaxdc.core.validate import check_int
 
 #: The 9 actions in the thesis' order (section 4.3).
 ACTIONS: tuple[str, ...] = (
@@ -153,13 +157,12 @@ def risk_map(preset: str, grid_size: int = 8) -> np.ndarray:
     return rho
 
 
-def check_grid_size(grid_size) -> int:
-    """Validate a grid size (an int >= 2)."""
-    if isinstance(grid_size, bool) or not isinstance(grid_size, (int, np.integer)):
-        raise TypeError(f"grid_size must be an int >= 2, got {grid_size!r}")
-    if grid_size < 2:
-        raise ValueError(f"grid_size must be >= 2, got {grid_size}")
-    return int(grid_size)
+def check_grid_size(grid_size, max_cells: int | None = None) -> int:
+    """Validate a grid size (an int >= 2; with ``max_cells``, also ``N * N <= max_cells``)."""
+    n = check_int("grid_size", grid_size, 2)
+    if max_cells is not None and n**2 > max_cells:
+        raise ValueError(f"grid_size must be <= {math.isqrt(max_cells)} (N*N cells <= {max_cells}), got {grid_size}")
+    return n
 
 
 def validate_risk_map(risk, grid_size: int | None = None) -> np.ndarray:

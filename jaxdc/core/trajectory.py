@@ -15,6 +15,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdc.core.validate import check_positive_int
+
 
 def play_episode(env, params, policy: Callable, key, max_steps: int) -> list:
     """States ``s_0 .. s_T`` of one episode (unbatched pytrees on the host), ``T <= max_steps``.
@@ -25,9 +27,7 @@ def play_episode(env, params, policy: Callable, key, max_steps: int) -> list:
     (as the thesis' gameplay figures do). The episode stops at the first
     terminated or truncated step, or after ``max_steps`` steps.
     """
-    if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
-        raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
-    max_steps = int(max_steps)
+    max_steps = check_positive_int("max_steps", max_steps)
 
     @jax.jit
     def run(key):

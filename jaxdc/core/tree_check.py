@@ -3,14 +3,43 @@
 A parameter file or checkpoint may hold another network, or the right
 network trained on another grid or history length. Applying it would fail
 deep inside flax (or, worse, broadcast silently); :func:`check_like` compares
-the loaded pytree with freshly initialised parameters first.
+the loaded pytree with freshly initialised parameters first. :func:`mismatch`
+is the comparison itself, which :mod:`jaxdc.checkpoint` also uses on a
+restored training state.
 """
 
 from __future__ import annotations
 
+from typing import Callable, NamedTuple
+
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+
+class Mismatch(NamedTuple):
+    """How a pytree differs from a template: leaf paths missing or unexpected, or the first leaf of another shape."""
+
+    missing: list  # sorted paths of the template that the tree lacks
+    unexpected: list  # sorted paths of the tree that the template lacks
+    key: str | None = None  # with the same paths: the first (in the template's order) whose shape differs
+    got: tuple = ()
+    want: tuple = ()
+
+
+def mismatch(template, tree, key: Callable = jax.tree_util.keystr) -> Mismatch | None:
+    """``None`` if ``tree`` has ``template``'s leaf paths and shapes, else the :class:`Mismatch`.
+
+    ``key`` turns a leaf's path (``jax.tree_util`` path entries) into its name.
+    """
+    want = {key(k): np.shape(v) for k, v in jax.tree_util.tree_flatten_with_path(template)[0]}
+    got = {key(k): np.shape(v) for k, v in jax.tree_util.tree_flatten_with_path(tree)[0]}
+    if want.keys() != got.keys():
+        return Mismatch(sorted(set(want) - set(got)), sorted(set(got) - set(want)))
+    for k, shape in want.items():
+        if got[k] != shape:
+            return Mismatch([], [], k, got[k], shape)
+    return None
 
 
 def check_like(template, params, source: str, what: str, hint: str = ""):
@@ -20,13 +49,11 @@ def check_like(template, params, source: str, what: str, hint: str = ""):
     with history 10 on a 5x5 grid"``) and ``hint`` is appended to a shape
     mismatch (e.g. what may have differed in training).
     """
-    want = {jax.tree_util.keystr(k): np.shape(v) for k, v in jax.tree_util.tree_flatten_with_path(template)[0]}
-    got = {jax.tree_util.keystr(k): np.shape(v) for k, v in jax.tree_util.tree_flatten_with_path(params)[0]}
-    if want.keys() != got.keys():
+    m = mismatch(template, params)
+    if m is not None and m.key is None:
         raise ValueError(f"{source}: the parameters are not those of {what} "
-                         f"(missing {sorted(set(want) - set(got))[:3]}, unexpected {sorted(set(got) - set(want))[:3]})")
-    for k, shape in want.items():
-        if got[k] != shape:
-            raise ValueError(f"{source}: parameter {k} has shape {got[k]}, expected {shape} for {what}"
-                             + (f" ({hint})" if hint else ""))
+                         f"(missing {m.missing[:3]}, unexpected {m.unexpected[:3]})")
+    if m is not None:
+        raise ValueError(f"{source}: parameter {m.key} has shape {m.got}, expected {m.want} for {what}"
+                         + (f" ({hint})" if hint else ""))
     return jax.tree_util.tree_map(lambda x: jnp.asarray(x, jnp.float32), params)

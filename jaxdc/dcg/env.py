@@ -41,8 +41,10 @@ import numpy as np
 from flax import struct
 
 from jaxdc.core import grid
+from jaxdc.core.energy import ENERGY_METRICS, energy_used, step_energy
 from jaxdc.core.env import Environment
 from jaxdc.core.sampling import MAX_RANGE, drop_units, uniform_index
+from jaxdc.core.validate import check_int, is_int
 from jaxdc.dcg import opponents as opp_lib
 from jaxdc.dcg.opponents import CHASE_TIES, STANDARD_STRATEGIES, OpponentState
 
@@ -56,8 +58,6 @@ OPPONENT_STARTS = ("not_base", "any")
 PATROL_TARGETS = ("other", "any_non_base")
 #: What the history holds before the first step.
 HISTORY_FILLS = ("zeros", "first")
-#: What "energy consumed" counts (as for the DCP, see docs/ambiguities.md).
-ENERGY_METRICS = ("not_stay_in_base", "outside_base", "all_steps")
 #: Readings of the capture rule (section 5.3): "both" -- the opponent lands on the collector (1) or the
 #: collector moves onto the opponent (3); "opponent_moves" -- only (1).
 CAPTURES = ("both", "opponent_moves")
@@ -87,14 +87,6 @@ class EnvState:
     outcome: jax.Array  # int32 index into OUTCOMES
     ep_reward: jax.Array  # float32
     ep_energy: jax.Array  # int32 energy consumed so far (see ENERGY_METRICS)
-
-
-def _check_int(name: str, value, low: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be an int >= {low}, got {value!r}")
-    if value < low:
-        raise ValueError(f"{name} must be >= {low}, got {value}")
-    return int(value)
 
 
 def _check_choice(name: str, value, choices) -> str:
@@ -164,11 +156,9 @@ class DCG(Environment[EnvState, EnvParams]):
         caught_energy: str = "charged",
         min_reward_area: int | None = None,
     ):
-        self.grid_size = grid.check_grid_size(grid_size)
-        if self.grid_size**2 > MAX_RANGE:
-            raise ValueError(f"grid_size must be <= 255 (N*N cells <= {MAX_RANGE}), got {grid_size}")
+        self.grid_size = grid.check_grid_size(grid_size, max_cells=MAX_RANGE)  # the drop's uniform_index range
         if reward_area is not None:
-            reward_area = _check_int("reward_area", reward_area, 1)
+            reward_area = check_int("reward_area", reward_area, 1)
             if reward_area > self.grid_size:
                 raise ValueError(
                     f"reward_area must be between 1 and grid_size ({self.grid_size}), got {reward_area}")
@@ -176,17 +166,17 @@ class DCG(Environment[EnvState, EnvParams]):
         if min_reward_area is not None:
             if reward_area is None:
                 raise ValueError(f"min_reward_area={min_reward_area!r} needs a reward_area")
-            min_reward_area = _check_int("min_reward_area", min_reward_area, 1)
+            min_reward_area = check_int("min_reward_area", min_reward_area, 1)
             if min_reward_area > reward_area:
                 raise ValueError(f"min_reward_area must be between 1 and reward_area ({reward_area}), "
                                  f"got {min_reward_area}")
         self.min_reward_area = min_reward_area
         if total_reward is None:
             total_reward = 10 if reward_area is None else 1
-        self.total_reward = _check_int("total_reward", total_reward, 1)
+        self.total_reward = check_int("total_reward", total_reward, 1)
         self._strategies = opp_lib.get_strategies(strategies)
         self.strategies = tuple(s.name for s in self._strategies)
-        self.history = _check_int("history (k)", history, 1)
+        self.history = check_int("history (k)", history, 1)
         self.obs_history = bool(obs_history)
         self.history_fill = _check_choice("history_fill", history_fill, HISTORY_FILLS)
         self.items_on_base = bool(items_on_base)
@@ -246,7 +236,7 @@ class DCG(Environment[EnvState, EnvParams]):
             raise TypeError(f"energy must be a number > 0, got {energy!r}") from None
         if math.isnan(e) or e <= 0:
             raise ValueError(f"energy must be > 0 (inf allowed), got {energy!r}")
-        _check_int("max_steps", max_steps, 1)
+        check_int("max_steps", max_steps, 1)
         _check_choice("chase_tie", chase_tie, CHASE_TIES)
         return EnvParams(
             max_energy=jnp.float32(e),
@@ -265,7 +255,7 @@ class DCG(Environment[EnvState, EnvParams]):
         size = self.reward_area if size is None else size
         if size is None:
             size = n
-        elif isinstance(size, bool) or not isinstance(size, (int, np.integer)) or not 1 <= size <= n:
+        elif not is_int(size) or not 1 <= size <= n:
             raise ValueError(f"reward_area must be an int between 1 and grid_size ({n}), got {size!r}")
         r, c = np.divmod(np.arange(n * n), n)
         inside = (r >= n - size) & (c >= n - size)
@@ -364,14 +354,8 @@ class DCG(Environment[EnvState, EnvParams]):
         reward = jnp.where(collect, item, 0.0)
         items = state.items.at[pos[0], pos[1]].set(jnp.where(collect, 0.0, item))
         in_base = jnp.all(pos == 0)  # (4)
-        energy = jnp.where(in_base, params.max_energy, jnp.maximum(state.energy - 1.0, 0.0))
-        out_of_energy = ~in_base & (energy <= 0)
-        if self.energy_metric == "not_stay_in_base":
-            used = ~(in_base & jnp.all(state.pos == 0))
-        elif self.energy_metric == "outside_base":
-            used = ~in_base
-        else:
-            used = jnp.bool_(True)
+        energy, out_of_energy = step_energy(state.energy, params.max_energy, in_base)
+        used = energy_used(self.energy_metric, in_base, jnp.all(state.pos == 0))
         if self.caught_energy == "uncharged":  # the step ends at rule (1), before the energy rule
             energy = jnp.where(caught_first, state.energy, energy)
             used &= ~caught_first

@@ -32,6 +32,7 @@ from flax import struct
 
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import RPE_ZERO, episode_summary
+from jaxdc.core.validate import check_positive_int
 from jaxdc.dcg.env import DCG, OUTCOMES, EnvParams, EnvState
 
 #: Default number of games (section 5.5.3).
@@ -116,12 +117,6 @@ def aux_predictor(net, params) -> Callable | None:
     return predict
 
 
-def check_episodes(episodes) -> int:
-    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
-        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
-    return int(episodes)
-
-
 def evaluate_policy(env: DCG, params: EnvParams, policy: Callable, key, episodes: int = EPISODES,
                     predict: Callable | None = None, lanes: int | None = LANES) -> ScoredState:
     """Final states of ``episodes`` games of ``policy`` (jitted, batched), with the prediction counts.
@@ -133,7 +128,7 @@ def evaluate_policy(env: DCG, params: EnvParams, policy: Callable, key, episodes
     """
     if not isinstance(env, DCG):
         raise TypeError(f"env must be a jaxdc.dcg.env.DCG, got {type(env).__name__}")
-    episodes = check_episodes(episodes)
+    episodes = check_positive_int("episodes", episodes)
     scored = Scored(env)
     play = with_prediction(policy, predict)
     return jax.jit(lambda k: run_episodes(scored, params, play, k, episodes, lanes))(key)
@@ -158,7 +153,8 @@ def evaluate_network(env: DCG, params: EnvParams, net, net_params, key, episodes
     """
     if not isinstance(env, DCG):
         raise TypeError(f"env must be a jaxdc.dcg.env.DCG, got {type(env).__name__}")
-    return _run_network(env, params, net, net_params, key, bool(greedy), check_episodes(episodes), lanes)
+    episodes = check_positive_int("episodes", episodes)
+    return _run_network(env, params, net, net_params, key, bool(greedy), episodes, lanes)
 
 
 def accuracy(correct, predicted) -> float | None:

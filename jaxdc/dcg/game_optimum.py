@@ -39,6 +39,7 @@ from typing import NamedTuple
 import jax
 import numpy as np
 
+from jaxdc.core.validate import check_positive_int
 from jaxdc.dcg import optimal
 
 #: The largest search space accepted: ``2^d`` item subsets x cells x energy levels x opponent classes
@@ -177,8 +178,7 @@ def sampled_bound(env, params, key, episodes: int, progress: bool = False) -> di
     "item_cells_mean", "seconds", "rewards"}`` where ``rewards`` is the
     ``[episodes]`` array of per-game optima.
     """
-    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
-        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
+    check_positive_int("episodes", episodes)
     t0 = _time.perf_counter()
     machines = opponent_machines(env, params)
     _, states = jax.jit(jax.vmap(env.reset_env, in_axes=(0, None)))(jax.random.split(key, episodes), params)

@@ -19,7 +19,6 @@ of training, with optional changes (energy, strategy set, reward area, ...).
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -55,14 +54,8 @@ def init_params(net, grid_size: int, history: int, key=None):
 
 
 @dataclasses.dataclass(frozen=True)
-class Learned:
+class Learned(pretrained.Learned):
     """A trained DCG network with its parameters and the metadata of its training."""
-
-    net_name: str
-    net: Any  # a flax module (jaxdc.nets)
-    params: Any
-    metadata: dict
-    source: str
 
     def setting(self) -> dict:
         """The setting of training: ``grid_size, total_reward, energy, max_steps, strategies, history, chase_tie``."""

@@ -30,8 +30,10 @@ import numpy as np
 from flax import struct
 
 from jaxdc.core import grid
+from jaxdc.core.energy import ENERGY_METRICS, energy_used, step_energy
 from jaxdc.core.env import Environment
 from jaxdc.core.sampling import MAX_RANGE, drop_units, running_count, uniform_index
+from jaxdc.core.validate import check_int, check_positive_int, is_int
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
 OUTCOMES = ("running", "risk", "energy", "cleared", "idle", "truncated")
@@ -41,8 +43,6 @@ RUNNING, RISK, ENERGY, CLEARED, IDLE, TRUNCATED = range(len(OUTCOMES))
 STARTS = ("random_free", "random", "base")
 #: The order of items that breaks ties in the planners ("first item" of Algorithms 7-8).
 ITEM_ORDERS = ("drop", "row_major")
-#: What "energy consumed" counts (Tables 4.3-4.10).
-ENERGY_METRICS = ("not_stay_in_base", "outside_base", "all_steps")
 
 
 @struct.dataclass
@@ -113,15 +113,10 @@ class DCP(Environment[EnvState, EnvParams]):
         item_order: str = "drop",
         min_total_reward: int | None = None,
     ):
-        self.grid_size = grid.check_grid_size(grid_size)
-        if self.grid_size**2 > MAX_RANGE:
-            raise ValueError(f"grid_size must be <= 255 (N*N cells <= {MAX_RANGE}), got {grid_size}")
-        if isinstance(total_reward, bool) or not isinstance(total_reward, (int, np.integer)):
-            raise TypeError(f"total_reward must be an int >= 1, got {total_reward!r}")
-        if total_reward < 1:
-            raise ValueError(f"total_reward must be >= 1, got {total_reward}")
+        self.grid_size = grid.check_grid_size(grid_size, max_cells=MAX_RANGE)  # the drop's uniform_index range
+        check_int("total_reward", total_reward, 1)
         if min_total_reward is not None:
-            if isinstance(min_total_reward, bool) or not isinstance(min_total_reward, (int, np.integer)):
+            if not is_int(min_total_reward):
                 raise TypeError(f"min_total_reward must be None or an int, got {min_total_reward!r}")
             if not 1 <= min_total_reward <= total_reward:
                 raise ValueError(f"min_total_reward must be in [1, total_reward={total_reward}], got {min_total_reward}")
@@ -163,8 +158,7 @@ class DCP(Environment[EnvState, EnvParams]):
         """
         risk = grid.as_risk_map(risk, self.grid_size)
         init_e, max_e = check_energy(energy)
-        if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
-            raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
+        check_positive_int("max_steps", max_steps)
         return EnvParams(
             risk=jnp.asarray(risk, jnp.float32),
             init_energy=jnp.float32(init_e),
@@ -219,16 +213,9 @@ class DCP(Environment[EnvState, EnvParams]):
         items = state.items.at[pos[0], pos[1]].set(0.0)
         hit = jax.random.uniform(key) < params.risk[pos[0], pos[1]]
         in_base = jnp.all(pos == 0)
-        was_in_base = jnp.all(state.pos == 0)
-        energy = jnp.where(in_base, params.max_energy, jnp.maximum(state.energy - 1.0, 0.0))
-        out_of_energy = jnp.logical_and(~in_base, energy <= 0)
+        energy, out_of_energy = step_energy(state.energy, params.max_energy, in_base)
         cleared = jnp.all(items <= 0)
-        if self.energy_metric == "not_stay_in_base":
-            used = ~jnp.logical_and(in_base, was_in_base)
-        elif self.energy_metric == "outside_base":
-            used = ~in_base
-        else:
-            used = jnp.bool_(True)
+        used = energy_used(self.energy_metric, in_base, jnp.all(state.pos == 0))
         unchanged = (
             jnp.all(pos == state.pos) & (energy == state.energy) & (reward == 0) & ~hit & ~out_of_energy
         )
@@ -265,6 +252,48 @@ class DCP(Environment[EnvState, EnvParams]):
         here = (jnp.arange(n)[:, None] == state.pos[0]) & (jnp.arange(n)[None, :] == state.pos[1])
         agent = jnp.where(here, state.energy, 0.0).astype(jnp.float32)
         return jnp.stack([state.items, agent], axis=-1)
+
+    # -- text rendering (outside jit) ----------------------------------------------------
+    def render_ansi(self, state: EnvState, params: EnvParams) -> str:
+        """Text grid (:func:`render_ansi`): ``A`` agent, ``B`` base, item digits, ``.`` empty, then a status line."""
+        return render_ansi(state, params)
+
+
+def _fmt(x) -> str:
+    x = float(x)
+    if np.isinf(x):
+        return "inf"
+    return str(int(x)) if x == int(x) else f"{x:g}"
+
+
+def render_ansi(state, params) -> str:
+    """Text grid of a DCP-like state (outside jit): ``B`` base, ``A`` agent, item reward digits
+    (``*`` above 9; ``+`` below 1), ``.`` empty; one row per line, then a status line."""
+    items = np.asarray(state.items)
+    pos = tuple(int(p) for p in np.asarray(state.pos))
+    n = items.shape[0]
+    rows = []
+    for r in range(n):
+        cells = []
+        for c in range(n):
+            if (r, c) == pos:
+                ch = "A"
+            elif (r, c) == (0, 0):
+                ch = "B"
+            elif items[r, c] > 0:
+                v = float(items[r, c])
+                ch = "*" if v > 9 else str(int(round(v))) if v >= 1 else "+"
+            else:
+                ch = "."
+            cells.append(ch)
+        rows.append(" ".join(cells))
+    status = f"energy {_fmt(state.energy)}/{_fmt(params.max_energy)}"
+    if hasattr(state, "ep_reward"):
+        status += f", reward {_fmt(state.ep_reward)}"
+    if hasattr(state, "time"):
+        status += f", step {int(state.time)}"
+    rows.append(status)
+    return "\n".join(rows) + "\n"
 
 
 def check_energy(energy) -> tuple[float, float]:

@@ -17,18 +17,13 @@ import numpy as np
 
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
+from jaxdc.core.validate import check_positive_int
 from jaxdc.dcp import navigators
 from jaxdc.dcp.env import DCP, OUTCOMES, EnvParams
 from jaxdc.dcp.planners import PlannerConfig
 
 #: How RPE treats an episode that consumed no energy (footnote 4 of Table 4.3 is silent).
 RPE_ZERO = ("exclude", "zero")
-
-
-def check_episodes(episodes) -> int:
-    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
-        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
-    return int(episodes)
 
 
 def heuristic_policy(name: str, table, cfg: PlannerConfig = PlannerConfig()):
@@ -60,7 +55,7 @@ def evaluate_heuristic(
     """Final states of ``episodes`` episodes of heuristic policy ``name`` (jitted, batched)."""
     if name not in navigators.POLICIES:
         raise ValueError(f"policy must be one of {navigators.POLICIES}, got {name!r}")
-    return _run_heuristic(env, params, key, name, cfg, check_episodes(episodes), path_risk)
+    return _run_heuristic(env, params, key, name, cfg, check_positive_int("episodes", episodes), path_risk)
 
 
 @functools.partial(jax.jit, static_argnames=("env", "net", "net_name", "episodes", "greedy", "cfg", "path_risk"))
@@ -98,7 +93,8 @@ def evaluate_learned(
     if not 0.0 <= epsilon <= 1.0:
         raise ValueError(f"epsilon must be in [0, 1], got {epsilon!r}")
     net_params = check_params(learned.net_name, learned.net, learned.params, env.grid_size, learned.source)
-    return _run_learned(env, params, key, learned.net, learned.net_name, net_params, check_episodes(episodes),
+    episodes = check_positive_int("episodes", episodes)
+    return _run_learned(env, params, key, learned.net, learned.net_name, net_params, episodes,
                         bool(greedy), jax.numpy.float32(epsilon), cfg, path_risk)
 
 
@@ -115,7 +111,7 @@ def evaluate_optimal(env: DCP, params: EnvParams, key, episodes: int = 10_000):
     sol = solve_single_item(
         np.asarray(params.risk), float(params.max_energy), float(params.init_energy), grid_size=env.grid_size
     )
-    episodes = check_episodes(episodes)
+    episodes = check_positive_int("episodes", episodes)
     final = jax.jit(lambda k: run_episodes(env, params, optimal_policy(sol), k, episodes))(key)
     return final, expected_optimum(sol, env.items_on_base, env.start)
 

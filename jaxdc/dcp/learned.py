@@ -17,7 +17,6 @@ whose shapes do not fit the network on the requested grid raise a
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -38,14 +37,8 @@ ENV_OPTION_KEYS = ("start", "items_on_base", "idle_terminates", "item_order")
 
 
 @dataclasses.dataclass(frozen=True)
-class Learned:
-    """A trained network with its parameters and the metadata of how it was trained."""
-
-    net_name: str
-    net: Any  # a flax module (jaxdc.nets)
-    params: Any
-    metadata: dict
-    source: str
+class Learned(pretrained.Learned):
+    """A trained DCP network with its parameters and the metadata of how it was trained."""
 
     def setting(self) -> dict:
         """The environment setting of training: ``grid_size, total_reward, risk, energy, max_steps``."""

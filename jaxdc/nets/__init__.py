@@ -14,6 +14,7 @@ logits ``[B, 9]``.
 
 from __future__ import annotations
 
+from jaxdc.core.validate import is_int
 from jaxdc.nets.body import ConvBody
 from jaxdc.nets.cnn import CNN
 from jaxdc.nets.enn import ENN, EnsembleHead, ensemble
@@ -50,7 +51,7 @@ def make_dcg_net(name: str, history: int = 10, num_actions: int = 9):
         raise ValueError(f"net must be one of {tuple(DCG_NETS)}, got {name!r}")
     if name == "vnn":
         return VNN(num_actions)
-    if isinstance(history, bool) or not isinstance(history, int) or history < 1:
+    if not is_int(history, numpy=False) or history < 1:
         raise ValueError(f"history (k) must be an int >= 1 for {name}, got {history!r}")
     return DCG_NETS[name](num_actions, history=history)
 

@@ -18,6 +18,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.image import imsave
 
+from jaxdc.core.validate import check_positive_int
 from jaxdc.io import atomic_write
 from jaxdc.viewer.frame import DPI, render_frame
 
@@ -55,8 +56,7 @@ def save_strip(env, params, states, path, *, labels=None, cols=None) -> str:
             raise ValueError(f"labels must give one label per state ({len(states)}), got {len(labels)}")
     if cols is None:
         cols = min(len(states), 8)
-    if isinstance(cols, bool) or not isinstance(cols, (int, np.integer)) or cols < 1:
-        raise ValueError(f"cols must be an int >= 1, got {cols!r}")
+    check_positive_int("cols", cols)
     if not str(path).lower().endswith(".png"):
         raise ValueError(f"path must end in .png, got {str(path)!r}")
     frames = _frames(env, params, states, labels)

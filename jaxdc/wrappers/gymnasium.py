@@ -18,10 +18,10 @@ seed from gymnasium's ``np_random``.
 
 ``make_dcp`` / ``make_dcp_vector`` are the entry points registered as
 ``"jaxdc/DCP-v0"``, ``make_dcg`` / ``make_dcg_vector`` those of
-``"jaxdc/DCG-v0"`` (see :mod:`jaxdc`). ``render_mode="ansi"``: an environment
-with a ``render_ansi(state, params)`` method renders with it, others with
-:func:`render_ansi`. ``render_mode="rgb_array"`` (DCP and DCG): a ``uint8
-[H, W, 3]`` picture by :func:`jaxdc.viewer.render_frame` (risk field, base,
+``"jaxdc/DCG-v0"`` (see :mod:`jaxdc`). ``render_mode="ansi"``: the environment's
+``render_ansi(state, params)`` method (DCP and DCG), for others the DCP's text
+(:func:`render_ansi`, :func:`jaxdc.dcp.env.render_ansi`). ``render_mode="rgb_array"``
+(DCP and DCG): a ``uint8 [H, W, 3]`` picture by :func:`jaxdc.viewer.render_frame` (risk field, base,
 agent and energy, items, opponent, fog).
 """
 
@@ -40,6 +40,8 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from jaxdc.core.env import Environment
+from jaxdc.core.validate import check_positive_int
+from jaxdc.dcp.env import render_ansi
 
 RENDER_MODES = ("ansi", "rgb_array")
 
@@ -111,43 +113,6 @@ def _step_batch(env, num_envs, key, state, actions, params):
     key, sub = jax.random.split(key)
     out = jax.vmap(env.step, in_axes=(0, 0, 0, None))(jax.random.split(sub, num_envs), state, actions, params)
     return (key,) + tuple(out)
-
-
-def _fmt(x) -> str:
-    x = float(x)
-    if np.isinf(x):
-        return "inf"
-    return str(int(x)) if x == int(x) else f"{x:g}"
-
-
-def render_ansi(state, params) -> str:
-    """Text grid of a DCP-like state: ``B`` base, ``A`` agent, item reward digits
-    (``*`` above 9), ``.`` empty; one row per line, then a status line."""
-    items = np.asarray(state.items)
-    pos = tuple(int(p) for p in np.asarray(state.pos))
-    n = items.shape[0]
-    rows = []
-    for r in range(n):
-        cells = []
-        for c in range(n):
-            if (r, c) == pos:
-                ch = "A"
-            elif (r, c) == (0, 0):
-                ch = "B"
-            elif items[r, c] > 0:
-                v = float(items[r, c])
-                ch = "*" if v > 9 else str(int(round(v))) if v >= 1 else "+"
-            else:
-                ch = "."
-            cells.append(ch)
-        rows.append(" ".join(cells))
-    status = f"energy {_fmt(state.energy)}/{_fmt(params.max_energy)}"
-    if hasattr(state, "ep_reward"):
-        status += f", reward {_fmt(state.ep_reward)}"
-    if hasattr(state, "time"):
-        status += f", step {int(state.time)}"
-    rows.append(status)
-    return "\n".join(rows) + "\n"
 
 
 def _renderer(env, render_mode: str = "ansi"):
@@ -276,8 +241,7 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
 
     def __init__(self, env: Environment, num_envs: int, params=None, render_mode: str | None = None,
                  outcome_names=None, observation_space: spaces.Space | None = None):
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
+        check_positive_int("num_envs", num_envs)
         self.render_mode = _check_render_mode(render_mode, env)
         self.env = env
         self.num_envs = int(num_envs)

@@ -1,0 +1,34 @@
+"""jaxdc.core.validate: whole numbers, never bools, with the errors the constructors promise."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jaxdc.core.validate import check_int, check_positive_int, is_int
+
+
+def test_is_int():
+    assert is_int(3) and is_int(np.int32(3)) and is_int(np.int64(-1))
+    assert not is_int(True) and not is_int(np.bool_(True)) and not is_int(3.0) and not is_int("3")
+    assert is_int(3, numpy=False) and not is_int(np.int64(3), numpy=False) and not is_int(False, numpy=False)
+
+
+def test_check_int_type_then_range():
+    assert check_int("k", np.int16(4), 2) == 4 and type(check_int("k", np.int16(4), 2)) is int
+    with pytest.raises(TypeError, match=r"^k must be an int >= 2, got True$"):
+        check_int("k", True, 2)
+    with pytest.raises(TypeError, match=r"^k must be an int >= 2, got 2\.0$"):
+        check_int("k", 2.0, 2)
+    with pytest.raises(ValueError, match=r"^k must be >= 2, got 1$"):
+        check_int("k", 1, 2)
+
+
+def test_check_positive_int():
+    assert check_positive_int("episodes", np.int64(5)) == 5
+    for bad in (0, -1, True, 1.0, None):
+        with pytest.raises(ValueError, match=rf"^episodes must be an int >= 1, got {bad!r}$"):
+            check_positive_int("episodes", bad)
+    assert check_positive_int("n", 2, numpy=False) == 2
+    with pytest.raises(ValueError, match="n must be an int >= 1"):
+        check_positive_int("n", np.int64(2), numpy=False)
