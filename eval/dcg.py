@@ -371,18 +371,16 @@ def game_bound(learned, args) -> dict | None:
     env, params = learned.game()
     game = {"env": repr(env), "energy": float(params.max_energy), "max_steps": int(params.max_steps),
             "chase_tie": int(params.chase_tie), "episodes": args.bound_episodes, "key": 0}
-    path = os.path.join(args.cache, "bound_" + hashlib.sha256(json.dumps(game, sort_keys=True).encode())
-                        .hexdigest()[:24] + ".json")
-    if not args.no_cache and os.path.isfile(path):
-        with open(path) as f:
-            return json.load(f)
+    stored = _cached(None, game, args)
+    if stored is not None:
+        return stored
     try:
         res = sampled_bound(env, params, jax.random.PRNGKey(0), args.bound_episodes)
     except NotImplementedError:
         return None
     out = {"total": res["mean"], "se": res["se"], "episodes": res["episodes"],
            "per_strategy": {k: v["mean"] for k, v in res["per_strategy"].items()}, "game": game}
-    atomic_write_json(path, out)
+    _store(None, game, args, out)
     return out
 
 
@@ -404,13 +402,14 @@ def _save(plt, fig, path):
 
 
 def _cache_path(blob, settings, args):
-    """``CACHE/<sha256>.json``: one evaluation of one parameter file (its bytes and metadata) with one set of settings."""
+    """``CACHE/<sha256>.json``: one evaluation of one parameter file (its bytes and metadata) with one set of
+    settings; ``blob=None``: a result of the settings alone (the game bound, ``bound_<sha256>.json``)."""
     digest = hashlib.sha256()
-    for path in (blob, blob[: -len(".msgpack")] + ".json"):
+    for path in () if blob is None else (blob, blob[: -len(".msgpack")] + ".json"):
         with open(path, "rb") as f:
             digest.update(f.read())
     digest.update(json.dumps(settings, sort_keys=True, default=list).encode())
-    return os.path.join(args.cache, digest.hexdigest()[:24] + ".json")
+    return os.path.join(args.cache, ("bound_" if blob is None else "") + digest.hexdigest()[:24] + ".json")
 
 
 def _cached(blob, settings, args):
