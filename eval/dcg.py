@@ -35,7 +35,7 @@ import shlex
 import sys
 import time
 
-from jaxdc.cli import positive_float, positive_int
+from jaxdc.cli.args import positive_float, positive_int
 from jaxdc.dcg.opponents import DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
 from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
 

@@ -37,7 +37,7 @@ import time
 
 import numpy as np
 
-from jaxdc.cli import positive_float, positive_int, unit_interval
+from jaxdc.cli.args import positive_float, positive_int, unit_interval
 from jaxdc.core import grid
 from jaxdc.core.paths import PATH_RISK
 from jaxdc.dcp import env as dcp_env

@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from jaxdc.cli import positive_int
+from jaxdc.cli.args import positive_int
 from jaxdc.io import atomic_write, enable_compilation_cache
 
 FIGURE_REWARDS = {"3.1": "4-6", "3.2": "4-6", "3.3": "4-6", "3.4": "1-9", "3.5": "5"}

@@ -31,7 +31,7 @@ import numpy as np
 from jaxdc import checkpoint
 from jaxdc.agents import parallel
 from jaxdc.agents.a2c import A2CConfig, lr_schedule
-from jaxdc.cli import nonnegative_float, positive_float, positive_int, seed_list, unit_interval
+from jaxdc.cli.args import nonnegative_float, positive_float, positive_int, seed_list, unit_interval
 from jaxdc.io import atomic_write, atomic_write_json
 
 #: Exit status of a run stopped by a NaN loss.

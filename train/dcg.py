@@ -50,7 +50,7 @@ import jax.numpy as jnp
 from jaxdc import pretrained
 from jaxdc.agents import a2c
 from jaxdc.agents.a2c import A2CConfig
-from jaxdc.cli import integer, nonnegative_float, positive_float, positive_int
+from jaxdc.cli.args import integer, nonnegative_float, positive_float, positive_int
 from jaxdc.core.env import step_batch
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcg.env import DCG

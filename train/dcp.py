@@ -33,7 +33,7 @@ import jax
 
 from jaxdc.agents import a2c, nstep_q
 from jaxdc.agents.a2c import A2CConfig
-from jaxdc.cli import nonnegative_float, positive_float, positive_int
+from jaxdc.cli.args import nonnegative_float, positive_float, positive_int
 from jaxdc.core import grid
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes

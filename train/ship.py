@@ -136,7 +136,7 @@ def export(name: str, run: str, command: list[str], out: str) -> str:
 
 
 def main(argv=None) -> int:
-    from jaxdc.cli import positive_int
+    from jaxdc.cli.args import positive_int
     from jaxdc.pretrained import ASSETS
 
     p = argparse.ArgumentParser(prog="python -m train.ship", description=__doc__.split("\n")[0])

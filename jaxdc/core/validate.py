@@ -2,7 +2,7 @@
 
 Python's ``bool`` is an ``int``, so ``True`` would pass a plain ``isinstance``
 check as ``1``; these helpers refuse it. Validation happens outside jit, on
-Python and NumPy values (command-line input is checked by :mod:`jaxdc.cli`).
+Python and NumPy values (command-line input is checked by :mod:`jaxdc.cli.args`).
 """
 
 from __future__ import annotations
