@@ -24,7 +24,7 @@ def make_rollout(risk, energy, max_steps: int, total_reward: int, batch: int, st
     cells = n * n
     risk_flat = jnp.asarray(risk, jnp.float32).reshape(-1)
     init_e, max_e = (jnp.float32(e) for e in energy)
-    deltas = grid.DELTAS
+    deltas = jnp.asarray(grid.DELTAS_NP)
     ids = jnp.arange(cells, dtype=jnp.int32)
 
     def reset(key):

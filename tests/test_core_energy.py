@@ -38,3 +38,22 @@ def test_energy_used(metric, expected):
 def test_unknown_metric():
     with pytest.raises(ValueError, match="energy_metric must be one of"):
         energy.energy_used("most_steps", jnp.bool_(True), jnp.bool_(True))
+
+
+@pytest.mark.parametrize("value,error,message", [
+    (1e40, ValueError, "<= 16777216"), (2.0**24 + 1, ValueError, "<= 16777216"), (float("nan"), ValueError, "NaN"),
+    (0.0, ValueError, "> 0"), (-float("inf"), ValueError, "> 0"), (True, TypeError, "a number"),
+])
+def test_budgets_that_float32_cannot_count_are_refused(value, error, message):
+    with pytest.raises(error, match=message):
+        energy.check_budget("energy", value)
+    with pytest.raises(error, match=message):
+        dcg_env.DCG().make_params(energy=value)
+    with pytest.raises(error, match=message):
+        dcp_env.DCP().make_params(energy=(value, value) if value == value and value > 0 else (value, 16.0))
+
+
+def test_observed_energy_is_finite():
+    assert float(energy.observed_energy(jnp.float32(float("inf")), jnp.int32(70))) == 70.0
+    assert float(energy.observed_energy(jnp.float32(3.0), jnp.int32(70))) == 3.0
+    assert energy.observed_energy_bound(float("inf"), 70) == 70.0 and energy.observed_energy_bound(9.0, 70) == 9.0

@@ -178,17 +178,17 @@ def test_min_reward_area_refuses_bad_values(kwargs, error, message):
 @pytest.mark.parametrize("strategy,hidden", [("with_fog", False), ("double_blind", True)])
 def test_fog_visibility(strategy, hidden):
     s = game((0, 2), (3, 3), strategy, energy=9.0)
-    plane = np.asarray(ENV.agent_plane(s))
+    plane = np.asarray(ENV.agent_plane(s, P))
     assert plane[0, 2] == 9.0
     assert plane[3, 3] == (0.0 if hidden else -1.0)
     assert ("~" in ENV.render_ansi(s, P)) == hidden and ("O" in ENV.render_ansi(s, P)) is True
     out_of_fog = game((1, 2), (3, 3), strategy)
-    assert np.asarray(ENV.agent_plane(out_of_fog))[3, 3] == -1.0  # visible outside the fog either way
+    assert np.asarray(ENV.agent_plane(out_of_fog, P))[3, 3] == -1.0  # visible outside the fog either way
 
 
 def test_history_shifts_newest_first():
     s = game((2, 2), (4, 4))
-    planes = [np.asarray(ENV.agent_plane(s))]
+    planes = [np.asarray(ENV.agent_plane(s, P))]
     for a in (RIGHT, DOWN, LEFT):
         obs, s, _, term, _, _ = step(s, a)
         assert not bool(term)
@@ -196,7 +196,7 @@ def test_history_shifts_newest_first():
         for j in range(ENV.history):
             want = planes[-1 - j] if j < len(planes) else np.zeros((N, N))
             np.testing.assert_array_equal(h[..., j], want)
-        planes.append(np.asarray(ENV.agent_plane(s)))
+        planes.append(np.asarray(ENV.agent_plane(s, P)))
         np.testing.assert_array_equal(np.asarray(obs)[..., 2:], h)
         np.testing.assert_array_equal(np.asarray(obs)[..., 1], planes[-1])
     assert obs.shape == (N, N, 2 + ENV.history)

@@ -4,12 +4,24 @@ After its move, the agent's energy drops by one unless it is in the base
 ``(0, 0)``, where it refills to the maximum; it is disabled when the energy
 reaches 0 outside the base. Both problems apply this rule; their episode
 statistics count the energy consumed by one of :data:`ENERGY_METRICS`.
-Pure functions of arrays (``jit``/``vmap``).
+The step functions are pure functions of arrays (``jit``/``vmap``); the
+budget check runs outside jit, at ``make_params``.
+
+Unlimited energy (``inf``, Table 4.1) is a state, never an observation: the
+observation shows :func:`observed_energy`, which writes an infinite budget as
+the step cap ``max_steps``. An episode moves at most ``max_steps`` times and a
+move costs at most one unit, so a budget of ``max_steps`` can never run out
+either: the two mean the same game, and the number stays finite.
 """
 
 from __future__ import annotations
 
 import jax.numpy as jnp
+
+from jaxdc.core.validate import check_float
+
+#: The largest finite budget: float32 counts every unit exactly up to 2**24, so ``energy - 1`` always lowers it.
+MAX_FINITE_ENERGY = float(2**24)
 
 #: What "energy consumed" counts (Tables 4.3-4.10; docs/ambiguities.md): ``"not_stay_in_base"`` -- every step
 #: except one that starts and ends in the base; ``"outside_base"`` -- steps that end outside the base (the actual
@@ -22,6 +34,22 @@ def step_energy(energy, max_energy, in_base):
     ``out_of_energy`` when it is 0 outside the base."""
     energy = jnp.where(in_base, max_energy, jnp.maximum(energy - 1.0, 0.0))
     return energy, ~in_base & (energy <= 0)
+
+
+def observed_energy(energy, max_steps):
+    """The energy as an observation shows it: a finite budget as it is, ``inf`` as ``max_steps`` (finite)."""
+    return jnp.where(jnp.isinf(energy), jnp.asarray(max_steps, jnp.float32), energy)
+
+
+def observed_energy_bound(max_energy, max_steps) -> float:
+    """The largest energy an observation can show (outside jit): ``max_energy``, or ``max_steps`` when unlimited."""
+    max_energy = float(max_energy)
+    return float(max_steps) if max_energy == float("inf") else max_energy
+
+
+def check_budget(name: str, value) -> float:
+    """An energy budget: a number > 0, at most :data:`MAX_FINITE_ENERGY` or ``inf`` (no constraint)."""
+    return check_float(name, value, 0.0, MAX_FINITE_ENERGY, low_open=True, allow_inf=True)
 
 
 def energy_used(metric: str, in_base, was_in_base):

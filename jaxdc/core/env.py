@@ -25,7 +25,7 @@ from typing import Any, Generic, TypeVar
 import jax
 import jax.numpy as jnp
 
-from jaxdc.core import grid
+from jaxdc.core import grid, spaces
 
 S = TypeVar("S")
 P = TypeVar("P")
@@ -60,6 +60,24 @@ class Environment(Generic[S, P]):
         return grid.NUM_ACTIONS
 
     def observation_shape(self, params: P) -> tuple[int, ...]:
+        raise NotImplementedError
+
+    @property
+    def name(self) -> str:
+        """The environment's name (gymnax's ``env.name``)."""
+        return type(self).__name__
+
+    def action_space(self, params: P | None = None) -> spaces.Discrete:
+        """The 9 grid actions (gymnax's ``action_space(params)``)."""
+        return spaces.Discrete(self.num_actions)
+
+    def observation_space(self, params: P) -> spaces.Box:
+        """The observations under ``params``, with finite bounds (gymnax's ``observation_space(params)``)."""
+        low, high = self.observation_bounds(params)
+        return spaces.Box(low, high, self.observation_shape(params), jnp.float32)
+
+    def observation_bounds(self, params: P):
+        """``(low, high)`` arrays (or numbers) bounding every observation (written by subclasses)."""
         raise NotImplementedError
 
     # -- to be written by subclasses -------------------------------------------------

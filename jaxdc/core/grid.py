@@ -38,7 +38,6 @@ DELTAS_NP = np.array(
     [[0, 0], [-1, 0], [1, 0], [0, -1], [0, 1], [-1, -1], [-1, 1], [1, -1], [1, 1]],
     dtype=np.int32,
 )
-DELTAS = jnp.asarray(DELTAS_NP)
 
 #: Readings of "the action that follows the shortest path" (Algorithm 8).
 SHORTEST_MOVE_RULES = ("diagonal", "order")
@@ -58,12 +57,22 @@ def move(pos, action, grid_size: int):
     the axis perpendicular to that boundary": each coordinate is clipped on
     its own, so ``up_left`` from the top edge still moves left.
     """
-    return jnp.clip(pos + DELTAS[action], 0, grid_size - 1)
+    return jnp.clip(pos + jnp.asarray(DELTAS_NP)[action], 0, grid_size - 1)
+
+
+def clip_action(action):
+    """``(action, invalid)``: an action outside ``0 .. 8`` is clipped into that range (below 0 -> ``stay``,
+    above 8 -> ``down_right``) and flagged, so that the functional step has one defined behaviour under jit.
+
+    The environments' ``step_env`` apply it and report the flag as ``info["invalid_action"]``; the
+    gymnasium adapters refuse such actions before they reach the step.
+    """
+    return jnp.clip(action, 0, NUM_ACTIONS - 1), (action < 0) | (action >= NUM_ACTIONS)
 
 
 def neighbours(pos, grid_size: int):
     """All 9 successors of ``pos``, shape ``[..., 9, 2]`` (index = action)."""
-    return jnp.clip(pos[..., None, :] + DELTAS, 0, grid_size - 1)
+    return jnp.clip(pos[..., None, :] + jnp.asarray(DELTAS_NP), 0, grid_size - 1)
 
 
 def chebyshev(a, b):
@@ -91,8 +100,8 @@ def shortest_move(pos, target, grid_size: int, rule: str = "diagonal"):
     """
     if rule == "diagonal":
         step = jnp.sign(target - pos)
-        # Index of (step_row, step_col) in DELTAS via a 3x3 lookup table.
-        return _STEP_TO_ACTION[step[..., 0] + 1, step[..., 1] + 1]
+        # Index of (step_row, step_col) in DELTAS_NP via a 3x3 lookup table.
+        return jnp.asarray(_STEP_TO_ACTION)[step[..., 0] + 1, step[..., 1] + 1]
     if rule == "order":
         succ = neighbours(pos, grid_size)
         d = chebyshev(succ, target[..., None, :])
@@ -100,11 +109,11 @@ def shortest_move(pos, target, grid_size: int, rule: str = "diagonal"):
     raise ValueError(f"shortest_move rule must be one of {SHORTEST_MOVE_RULES}, got {rule!r}")
 
 
-def _step_table() -> jnp.ndarray:
+def _step_table() -> np.ndarray:
     table = np.zeros((3, 3), dtype=np.int32)
     for a, (dr, dc) in enumerate(DELTAS_NP):
         table[dr + 1, dc + 1] = a
-    return jnp.asarray(table)
+    return table
 
 
 _STEP_TO_ACTION = _step_table()
@@ -167,6 +176,8 @@ def check_grid_size(grid_size, max_cells: int | None = None) -> int:
 
 def validate_risk_map(risk, grid_size: int | None = None) -> np.ndarray:
     """Check a user risk map: a square ``N x N`` array of finite values in ``[0, 1]`` with base risk 0."""
+    if _holds_bool(risk):
+        raise TypeError("risk map must hold numbers in [0, 1], not booleans (true/false)")
     try:
         arr = np.asarray(risk, dtype=np.float32)
     except (TypeError, ValueError) as e:
@@ -176,13 +187,27 @@ def validate_risk_map(risk, grid_size: int | None = None) -> np.ndarray:
     check_grid_size(arr.shape[0])
     if grid_size is not None and arr.shape[0] != grid_size:
         raise ValueError(f"risk map is {arr.shape[0]}x{arr.shape[0]} but grid_size is {grid_size}")
-    if not np.all(np.isfinite(arr)) or arr.min() < 0 or arr.max() > 1:
+    if not np.all(np.isfinite(arr)):
+        r, c = (int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+        raise ValueError(f"risk map values must be finite numbers in [0, 1], got {arr[r, c]} at cell ({r}, {c})")
+    if arr.min() < 0 or arr.max() > 1:
         raise ValueError(
             f"risk map values must lie in [0, 1], got min {np.nanmin(arr):.4g}, max {np.nanmax(arr):.4g}"
         )
     if arr[0, 0] != 0:
         raise ValueError(f"the base cell (0, 0) must have risk 0, got {arr[0, 0]:.4g}")
     return arr
+
+
+def _holds_bool(value) -> bool:
+    """Whether a risk map given as an array or nested lists holds booleans (``np.asarray`` would read them as 0/1)."""
+    if isinstance(value, (bool, np.bool_)):
+        return True
+    if isinstance(value, np.ndarray):
+        return value.dtype == np.bool_ or (value.dtype == object and any(_holds_bool(v) for v in value.ravel()))
+    if isinstance(value, (list, tuple)):
+        return any(_holds_bool(v) for v in value)
+    return False
 
 
 def as_risk_map(risk, grid_size: int = 8) -> np.ndarray:

@@ -13,7 +13,7 @@ module computes, for one ``N x N`` risk map, the full table over all
 * ``steps[c, b]`` -- its number of moves.
 
 Cells are flattened row-major (``index = row * N + col``). The moves are the 8
-non-stay actions of :data:`jaxdc.core.grid.DELTAS`, clipped per axis at the
+non-stay actions of :data:`jaxdc.core.grid.DELTAS_NP`, clipped per axis at the
 border exactly as :func:`jaxdc.core.grid.move`; a clipped move that lands on
 its own cell is a self-loop and is ignored, so the successors of a cell are its
 Chebyshev-distance-1 neighbours (and the graph is symmetric).

@@ -41,10 +41,10 @@ import numpy as np
 from flax import struct
 
 from jaxdc.core import grid
-from jaxdc.core.energy import ENERGY_METRICS, energy_used, step_energy
+from jaxdc.core.energy import ENERGY_METRICS, check_budget, energy_used, observed_energy, observed_energy_bound, step_energy
 from jaxdc.core.env import Environment
 from jaxdc.core.sampling import MAX_RANGE, drop_units, uniform_index
-from jaxdc.core.validate import check_int, is_int
+from jaxdc.core.validate import INT32_MAX, check_int, is_int
 from jaxdc.dcg import opponents as opp_lib
 from jaxdc.dcg.opponents import CHASE_TIES, STANDARD_STRATEGIES, OpponentState
 
@@ -230,13 +230,8 @@ class DCG(Environment[EnvState, EnvParams]):
           chase_tie: how "moves towards" breaks ties, one of
             :data:`~jaxdc.dcg.opponents.CHASE_TIES`.
         """
-        try:
-            e = float(energy)
-        except (TypeError, ValueError):
-            raise TypeError(f"energy must be a number > 0, got {energy!r}") from None
-        if math.isnan(e) or e <= 0:
-            raise ValueError(f"energy must be > 0 (inf allowed), got {energy!r}")
-        check_int("max_steps", max_steps, 1)
+        e = check_budget("energy", energy)
+        check_int("max_steps", max_steps, 1, INT32_MAX)
         _check_choice("chase_tie", chase_tie, CHASE_TIES)
         return EnvParams(
             max_energy=jnp.float32(e),
@@ -274,6 +269,15 @@ class DCG(Environment[EnvState, EnvParams]):
 
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, 2 + (self.history if self.obs_history else 0))
+
+    def observation_bounds(self, params: EnvParams):
+        """Items in ``[0, total_reward]``; agent and history planes in ``[-1, max_energy]`` (the opponent is -1;
+        ``max_steps`` stands for unlimited energy)."""
+        shape = self.observation_shape(params)
+        low = np.full(shape, -1.0, np.float32)
+        high = np.full(shape, observed_energy_bound(params.max_energy, params.max_steps), np.float32)
+        low[..., 0], high[..., 0] = 0.0, self.total_reward
+        return low, high
 
     # -- dynamics ---------------------------------------------------------------------
     def reset_env(self, key, params: EnvParams):
@@ -316,7 +320,7 @@ class DCG(Environment[EnvState, EnvParams]):
             ep_energy=jnp.int32(0),
         )
         if self.history_fill == "first":
-            plane = self.agent_plane(state)
+            plane = self.agent_plane(state, params)
             state = state.replace(history=jnp.repeat(plane[..., None], self.history, axis=-1))
         return self.observe(state, params), state
 
@@ -337,6 +341,7 @@ class DCG(Environment[EnvState, EnvParams]):
 
     def step_env(self, key, state: EnvState, action, params: EnvParams):
         """One transition of section 5.3, without auto-reset."""
+        action, invalid = grid.clip_action(action)
         o_t, opp = self.opponent_move(key, state, params)
         caught_first = jnp.all(opp.pos == state.pos)  # (1) the opponent lands on the collector
         if self.safe_base:
@@ -365,7 +370,7 @@ class DCG(Environment[EnvState, EnvParams]):
             [CAUGHT, ENERGY, CLEARED, TRUNCATED],
             RUNNING,
         ).astype(jnp.int32)
-        history = jnp.concatenate([self.agent_plane(state)[..., None], state.history[..., :-1]], axis=-1)
+        history = jnp.concatenate([self.agent_plane(state, params)[..., None], state.history[..., :-1]], axis=-1)
         new_state = state.replace(
             pos=pos, energy=energy, items=items, opponent=opp, history=history, time=time, outcome=outcome,
             ep_reward=state.ep_reward + reward, ep_energy=state.ep_energy + used.astype(jnp.int32),
@@ -379,6 +384,7 @@ class DCG(Environment[EnvState, EnvParams]):
             "episode_reward": new_state.ep_reward,
             "episode_energy": new_state.ep_energy,
             "episode_steps": time,
+            "invalid_action": invalid,
         }
         return self.observe(new_state, params), new_state, reward, terminated, truncated, info
 
@@ -388,22 +394,23 @@ class DCG(Environment[EnvState, EnvParams]):
         hides = jnp.asarray([s.hides_in_fog for s in self._strategies])
         return hides[state.strategy] & opp_lib.in_fog(state.pos)
 
-    def agent_plane(self, state: EnvState):
+    def agent_plane(self, state: EnvState, params: EnvParams):
         """``M^agent`` as the collector observes it (section 5.4.1), ``[N, N]``.
 
         The collector's energy at its cell, -1 at the opponent's (drawn over the
         collector when they share a cell), 0 elsewhere; the opponent is left out
-        while :meth:`opponent_hidden`.
+        while :meth:`opponent_hidden`. An unlimited budget shows as ``max_steps``
+        (:func:`~jaxdc.core.energy.observed_energy`).
         """
         n = self.grid_size
         rows, cols = jnp.arange(n)[:, None], jnp.arange(n)[None, :]
         me = (rows == state.pos[0]) & (cols == state.pos[1])
         opp = (rows == state.opponent.pos[0]) & (cols == state.opponent.pos[1]) & ~self.opponent_hidden(state)
-        return jnp.where(opp, -1.0, jnp.where(me, state.energy, 0.0)).astype(jnp.float32)
+        return jnp.where(opp, -1.0, jnp.where(me, observed_energy(state.energy, params.max_steps), 0.0)).astype(jnp.float32)
 
-    def planes(self, state: EnvState):
+    def planes(self, state: EnvState, params: EnvParams):
         """The current state ``s_t`` as two planes ``[N, N, 2]``: ``M^item``, ``M^agent``."""
-        return jnp.stack([state.items, self.agent_plane(state)], axis=-1)
+        return jnp.stack([state.items, self.agent_plane(state, params)], axis=-1)
 
     def observe_history(self, state: EnvState):
         """The history ``h``: the ``k`` previous observed agent planes, ``[N, N, k]`` (newest first)."""
@@ -411,7 +418,7 @@ class DCG(Environment[EnvState, EnvParams]):
 
     def observe(self, state: EnvState, params: EnvParams):
         """``[N, N, 2 + k]`` (planes then history) with ``obs_history``, else ``[N, N, 2]``."""
-        planes = self.planes(state)
+        planes = self.planes(state, params)
         if self.obs_history:
             return jnp.concatenate([planes, state.history], axis=-1)
         return planes

@@ -30,10 +30,10 @@ import numpy as np
 from flax import struct
 
 from jaxdc.core import grid
-from jaxdc.core.energy import ENERGY_METRICS, energy_used, step_energy
+from jaxdc.core.energy import ENERGY_METRICS, check_budget, energy_used, observed_energy, observed_energy_bound, step_energy
 from jaxdc.core.env import Environment
 from jaxdc.core.sampling import MAX_RANGE, drop_units, running_count, uniform_index
-from jaxdc.core.validate import check_int, check_positive_int, is_int
+from jaxdc.core.validate import INT32_MAX, check_int, check_positive_int, is_int
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
 OUTCOMES = ("running", "risk", "energy", "cleared", "idle", "truncated")
@@ -158,7 +158,7 @@ class DCP(Environment[EnvState, EnvParams]):
         """
         risk = grid.as_risk_map(risk, self.grid_size)
         init_e, max_e = check_energy(energy)
-        check_positive_int("max_steps", max_steps)
+        check_positive_int("max_steps", max_steps, high=INT32_MAX)
         return EnvParams(
             risk=jnp.asarray(risk, jnp.float32),
             init_energy=jnp.float32(init_e),
@@ -168,6 +168,13 @@ class DCP(Environment[EnvState, EnvParams]):
 
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, 2)
+
+    def observation_bounds(self, params: EnvParams):
+        """Items in ``[0, total_reward]``; the energy plane in ``[0, max_energy]`` (``max_steps`` if unlimited)."""
+        high = np.zeros(self.observation_shape(params), np.float32)
+        high[..., 0] = self.total_reward
+        high[..., 1] = observed_energy_bound(params.max_energy, params.max_steps)
+        return 0.0, high
 
     # -- dynamics ---------------------------------------------------------------------
     def reset_env(self, key, params: EnvParams):
@@ -208,6 +215,7 @@ class DCP(Environment[EnvState, EnvParams]):
     def step_env(self, key, state: EnvState, action, params: EnvParams):
         """One transition of section 4.3, without auto-reset."""
         n = self.grid_size
+        action, invalid = grid.clip_action(action)
         pos = grid.move(state.pos, action, n)
         reward = state.items[pos[0], pos[1]]
         items = state.items.at[pos[0], pos[1]].set(0.0)
@@ -243,14 +251,16 @@ class DCP(Environment[EnvState, EnvParams]):
             "episode_reward": new_state.ep_reward,
             "episode_energy": new_state.ep_energy,
             "episode_steps": time,
+            "invalid_action": invalid,
         }
         return self.observe(new_state, params), new_state, reward, terminated, truncated, info
 
     def observe(self, state: EnvState, params: EnvParams):
-        """The two planes ``[N, N, 2]``: item rewards and the energy at the agent's cell."""
+        """The two planes ``[N, N, 2]``: item rewards and the energy at the agent's cell (section 4.5.1; an
+        unlimited budget shows as ``max_steps``, :func:`~jaxdc.core.energy.observed_energy`)."""
         n = self.grid_size
         here = (jnp.arange(n)[:, None] == state.pos[0]) & (jnp.arange(n)[None, :] == state.pos[1])
-        agent = jnp.where(here, state.energy, 0.0).astype(jnp.float32)
+        agent = jnp.where(here, observed_energy(state.energy, params.max_steps), 0.0).astype(jnp.float32)
         return jnp.stack([state.items, agent], axis=-1)
 
     # -- text rendering (outside jit) ----------------------------------------------------
@@ -297,14 +307,14 @@ def render_ansi(state, params) -> str:
 
 
 def check_energy(energy) -> tuple[float, float]:
-    """Validate ``(initial, maximum)`` energy: ``0 < initial <= maximum``; ``inf`` allowed."""
+    """Validate ``(initial, maximum)`` energy: ``0 < initial <= maximum``, each finite (at most
+    :data:`~jaxdc.core.energy.MAX_FINITE_ENERGY`) or ``inf``."""
     try:
-        init_e, max_e = (float(e) for e in energy)
+        init_e, max_e = energy
     except (TypeError, ValueError):
         raise TypeError(f"energy must be a pair (initial, maximum) of numbers, got {energy!r}") from None
-    for name, e in (("initial energy", init_e), ("maximum energy", max_e)):
-        if math.isnan(e) or e <= 0:
-            raise ValueError(f"{name} must be > 0 (inf allowed), got {e}")
+    init_e = check_budget("initial energy", init_e)
+    max_e = check_budget("maximum energy", max_e)
     if init_e > max_e:
-        raise ValueError(f"initial energy ({init_e}) must not exceed the maximum energy ({max_e})")
+        raise ValueError(f"initial energy ({init_e:g}) must not exceed the maximum energy ({max_e:g})")
     return init_e, max_e

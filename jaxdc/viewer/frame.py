@@ -81,6 +81,10 @@ def check_frame_input(env, params, state):
     if not isinstance(state, state_cls):
         raise TypeError(f"state must be a {type(env).__name__} EnvState ({state_cls.__module__}), "
                         f"got {type(state).__name__}")
+    params_cls = sys.modules[type(env).__module__].EnvParams
+    if not isinstance(params, params_cls):
+        raise TypeError(f"params must be a {type(env).__name__} EnvParams ({params_cls.__module__}; "
+                        f"env.make_params(...)), got {type(params).__module__}.{type(params).__name__}")
     params, state = jax.device_get((params, state))
     n = env.grid_size
     items, pos = np.shape(state.items), np.shape(state.pos)

@@ -40,7 +40,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from jaxdc.core.env import Environment
-from jaxdc.core.validate import check_positive_int
+from jaxdc.core.validate import check_positive_int, check_seed
 from jaxdc.dcp.env import render_ansi
 
 RENDER_MODES = ("ansi", "rgb_array")
@@ -72,16 +72,16 @@ def _outcome_names(env, outcome_names):
 
 
 def _spaces(env: Environment, params, observation_space=None):
+    """gymnasium spaces from the environment's own (finite) ``observation_space(params)``; an environment
+    that does not bound its observations (``observation_bounds`` not written) gets an unbounded Box."""
     if observation_space is None:
         shape = tuple(int(s) for s in env.observation_shape(params))
-        low = np.full(shape, -np.inf, np.float32)
-        if len(shape) == 3 and shape[-1] == 2:
-            # DCP planes: items >= 0; the agent plane holds the energy, which may
-            # be inf (no constraint) and, with a non-integer budget, dips into
-            # (-1, 0] on the step that disables the agent (energy > 0 before it).
-            low[..., 0] = 0.0
-            low[..., 1] = -1.0
-        observation_space = spaces.Box(low=low, high=np.inf, shape=shape, dtype=np.float32)
+        try:
+            box = env.observation_space(params)
+            low, high = box.low, box.high
+        except NotImplementedError:
+            low, high = np.full(shape, -np.inf, np.float32), np.full(shape, np.inf, np.float32)
+        observation_space = spaces.Box(low=low, high=high, shape=shape, dtype=np.float32)
     return observation_space, spaces.Discrete(int(env.num_actions))
 
 
@@ -147,6 +147,8 @@ class _KeyedReset:
         return self._state
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        if seed is not None:
+            check_seed("seed", seed)
         super().reset(seed=seed)
         if seed is not None:
             self._key = jax.random.PRNGKey(seed)
