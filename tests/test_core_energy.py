@@ -57,3 +57,5 @@ def test_observed_energy_is_finite():
     assert float(energy.observed_energy(jnp.float32(float("inf")), jnp.int32(70))) == 70.0
     assert float(energy.observed_energy(jnp.float32(3.0), jnp.int32(70))) == 3.0
     assert energy.observed_energy_bound(float("inf"), 70) == 70.0 and energy.observed_energy_bound(9.0, 70) == 9.0
+    assert energy.observed_energy_bound(float("inf"), 5, init_energy=9.0) == 9.0
+    assert energy.observed_energy_bound(float("inf"), 50, init_energy=9.0) == 50.0

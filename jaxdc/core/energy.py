@@ -41,10 +41,12 @@ def observed_energy(energy, max_steps):
     return jnp.where(jnp.isinf(energy), jnp.asarray(max_steps, jnp.float32), energy)
 
 
-def observed_energy_bound(max_energy, max_steps) -> float:
-    """The largest energy an observation can show (outside jit): ``max_energy``, or ``max_steps`` when unlimited."""
-    max_energy = float(max_energy)
-    return float(max_steps) if max_energy == float("inf") else max_energy
+def observed_energy_bound(max_energy, max_steps, init_energy=None) -> float:
+    """The largest energy an observation can show (outside jit): ``max_energy``, or, when it is unlimited,
+    ``max_steps`` or a larger finite ``init_energy`` (shown until the first refill)."""
+    budgets = [float(max_energy)] + ([] if init_energy is None else [float(init_energy)])
+    finite = [b for b in budgets if b != float("inf")]
+    return max(finite + ([float(max_steps)] if len(finite) < len(budgets) else []))
 
 
 def check_budget(name: str, value) -> float:

@@ -170,10 +170,11 @@ class DCP(Environment[EnvState, EnvParams]):
         return (self.grid_size, self.grid_size, 2)
 
     def observation_bounds(self, params: EnvParams):
-        """Items in ``[0, total_reward]``; the energy plane in ``[0, max_energy]`` (``max_steps`` if unlimited)."""
+        """Items in ``[0, total_reward]``; the energy plane in ``[0, observed_energy_bound(...)]`` (the budget, or
+        ``max_steps`` for an unlimited one)."""
         high = np.zeros(self.observation_shape(params), np.float32)
         high[..., 0] = self.total_reward
-        high[..., 1] = observed_energy_bound(params.max_energy, params.max_steps)
+        high[..., 1] = observed_energy_bound(params.max_energy, params.max_steps, params.init_energy)
         return 0.0, high
 
     # -- dynamics ---------------------------------------------------------------------
