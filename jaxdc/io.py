@@ -1,18 +1,26 @@
-"""Atomic file output: results are written to a temporary file, then renamed.
+"""File output: atomic writes, sets of files that land together, and strict JSON.
 
-A run killed half-way (Ctrl-C included) never leaves a half-written result.
+A run killed half-way (Ctrl-C included) never leaves a half-written result:
+every file is written to a temporary file in the same folder, then renamed.
+:func:`atomic_write_set` writes several files (a table's ``.json`` and
+``.md``) so that either all the old ones or all the new ones are there.
+Every JSON jaxdc writes is strict (:func:`json_text`): NaN and Infinity,
+which JSON does not have, are refused with the key path that holds them, so
+a producer writes ``null`` and a reason instead.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+import math
 import os
+import signal
 import tempfile
 
 
-def atomic_write(path, data: bytes | str) -> str:
-    """Write ``data`` to ``path`` atomically (same-directory temp file, then ``os.replace``)."""
-    path = os.fspath(path)
+def _write_temp(path: str, data: bytes | str) -> str:
+    """Write ``data`` to a new temporary file beside ``path`` (with the mode ``open`` would give); its name."""
     folder = os.path.dirname(path) or "."
     os.makedirs(folder, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.basename(path))
@@ -21,12 +29,15 @@ def atomic_write(path, data: bytes | str) -> str:
         os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "wb") as f:
             f.write(data.encode() if isinstance(data, str) else data)
-        os.replace(tmp, path)
     except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        os.unlink(tmp)
         raise
-    return path
+    return tmp
+
+
+def atomic_write(path, data: bytes | str) -> str:
+    """Write ``data`` to ``path`` atomically (same-directory temp file, then ``os.replace``)."""
+    return atomic_write_set({path: data})[0]
 
 
 def _umask() -> int:
@@ -35,9 +46,109 @@ def _umask() -> int:
     return mask
 
 
+def non_finite_paths(obj, prefix: str = "") -> list[str]:
+    """Key paths (``a.b[2]``) of the NaN and infinite floats inside ``obj`` (dicts, lists, tuples, numbers)."""
+    if isinstance(obj, float):
+        return [] if math.isfinite(obj) else [prefix or "<top>"]
+    if isinstance(obj, dict):
+        return [p for k, v in obj.items() for p in non_finite_paths(v, f"{prefix}.{k}" if prefix else str(k))]
+    if isinstance(obj, (list, tuple)):
+        return [p for i, v in enumerate(obj) for p in non_finite_paths(v, f"{prefix}[{i}]")]
+    return []
+
+
+def json_text(obj, indent: int | None = 2) -> str:
+    """``obj`` as strict JSON text (``allow_nan=False``); a NaN or infinity raises ``ValueError`` naming where."""
+    try:
+        return json.dumps(obj, indent=indent, sort_keys=False, allow_nan=False)
+    except ValueError:
+        where = ", ".join(non_finite_paths(obj)[:5]) or "?"
+        raise ValueError(f"refusing to write NaN or Infinity into JSON (at {where}); "
+                         f"an undefined value must be written as null") from None
+
+
+def finite_or_none(x):
+    """``x`` as a float, or ``None`` when it is NaN or infinite (for a statistic that is undefined)."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
 def atomic_write_json(path, obj) -> str:
-    """``atomic_write`` of ``obj`` as indented JSON."""
-    return atomic_write(path, json.dumps(obj, indent=2, sort_keys=False) + "\n")
+    """``atomic_write`` of ``obj`` as indented strict JSON (:func:`json_text`)."""
+    return atomic_write(path, json_text(obj) + "\n")
+
+
+@contextlib.contextmanager
+def _signals_deferred():
+    """Hold SIGINT/SIGTERM (main thread, POSIX) until the block ends, so that it runs to completion."""
+    can = hasattr(signal, "pthread_sigmask") and os.name == "posix"
+    sigs = {signal.SIGINT, signal.SIGTERM}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs) if can else None
+    try:
+        yield
+    finally:
+        if can:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def atomic_write_set(files: dict) -> list[str]:
+    """Write several files so that they land together: ``{path: text or bytes}``.
+
+    Every file is first written to a temporary file beside it; the renames
+    then run with SIGINT/SIGTERM held, so an interruption leaves either the
+    old set or the complete new one (never a new ``.json`` beside an old
+    ``.md``). Returns the paths.
+    """
+    temps = []
+    try:
+        for path, data in files.items():
+            path = os.fspath(path)
+            temps.append((_write_temp(path, data), path))
+        with _signals_deferred():
+            for tmp, path in temps:
+                os.replace(tmp, path)
+    except BaseException:
+        for tmp, _ in temps:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+        raise
+    return [path for _, path in temps]
+
+
+def check_output_path(path, what: str = "output") -> str:
+    """Refuse, before any work, a file path that cannot be written: its folder is a file or not writable.
+
+    Creates nothing. Returns the path. ``ValueError`` names the path and the reason.
+    """
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        raise ValueError(f"{what} {path!r} is a folder, not a file")
+    _check_folder(os.path.dirname(os.path.abspath(path)), what, path)
+    return path
+
+
+def check_output_folder(folder, what: str = "output folder") -> str:
+    """Refuse, before any work, a folder that cannot be created or written (a file in the way, no permission)."""
+    folder = os.fspath(folder)
+    if os.path.exists(folder) and not os.path.isdir(folder):
+        raise ValueError(f"{what} {folder!r} is a file, not a folder")
+    _check_folder(os.path.abspath(folder), what, folder)
+    return folder
+
+
+def _check_folder(folder: str, what: str, given: str) -> None:
+    probe = folder
+    while not os.path.exists(probe):  # the nearest existing ancestor decides
+        parent = os.path.dirname(probe)
+        if parent == probe:
+            break
+        probe = parent
+    if not os.path.isdir(probe):
+        raise ValueError(f"{what} {given!r} cannot be created: {probe!r} is a file")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise ValueError(f"{what} {given!r} is not writable (no permission in {probe!r})")
 
 
 def enable_compilation_cache(path: str | None = None) -> None:
