@@ -1,4 +1,4 @@
-"""The ceiling of opponent-action prediction (jaxdc.dcg.predictability): labels aligned, Bayes predictor sound."""
+"""The ceiling of opponent-action prediction (jaxdc.dcg.analysis.predictability): labels aligned, Bayes predictor sound."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from jaxdc.dcg import DCG, DOUBLE_BLIND_STRATEGIES
-from jaxdc.dcg.predictability import ceiling, record, window_predict, windows
+from jaxdc.dcg.analysis.predictability import ceiling, record, window_predict, windows
 
 K = 3  # a short history keeps the enumeration small
 
@@ -54,7 +54,7 @@ def test_windows_mark_the_frames_before_the_reset(games):
 def test_supervised_omn_learns_a_single_chaser():
     """OMN alone on a fixed collector's games: against one restricted chaser on 3 x 3 it must beat the
     share of its most frequent action."""
-    from jaxdc.dcg.predictability import supervised_omn
+    from jaxdc.dcg.analysis.predictability import supervised_omn
     from jaxdc.nets import make_dcg_net
 
     env = DCG(grid_size=3, total_reward=3, strategies=("restricted",), history=2)

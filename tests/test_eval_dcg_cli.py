@@ -1,15 +1,17 @@
-"""`python -m eval.dcg`: JSON output, clear errors, determinism, the figure and render subcommands (tiny games)."""
+"""`python -m eval.dcg` (jaxdc.cli.eval_dcg): JSON output, clear errors, determinism, the figure and render subcommands (tiny games)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 
 import jax
 import pytest
 
-from eval import dcg as cli
 from jaxdc import pretrained
+from jaxdc.cli import eval_dcg as cli
+from jaxdc.dcg.analysis.evaluation import evaluate
 from jaxdc.dcg.learned import init_params, make_network
 
 EPISODES = "16"  # one value for every evaluation here: the compiled program is shared
@@ -112,7 +114,6 @@ def test_figure_writes_png_json_and_claims(nets, tmp_path, capsys):
 
 
 def test_render_writes_strip_and_gif(nets, tmp_path, capsys):
-    pytest.importorskip("jaxdc.viewer")
     text = _run(["render", "--checkpoint", os.path.join(nets, "omn_conn.msgpack"), "--strategy", "patrol",
                  "--seed", "1", "--greedy", "--max-steps", "4", "--out", str(tmp_path)], capsys).out
     files = sorted(os.listdir(tmp_path))
@@ -190,10 +191,42 @@ def test_shipped_one_item_network_nears_the_bound_and_beats_the_standard_one():
     OMN+CoNN on that game, both as fractions of the exact full-information bound."""
     from jaxdc.dcg import learned
 
-    area, standard = (cli.evaluate(learned.shipped(n), episodes=2000, seed=1, reward_area=2)
+    area, standard = (evaluate(learned.shipped(n), episodes=2000, seed=1, reward_area=2)
                       for n in ("omn_conn_area2", "omn_conn"))
     a, b = area["reward"], standard["reward"]
     se = ((a["sd"] ** 2 + b["sd"] ** 2) / 2000) ** 0.5
     assert a["mean"] - b["mean"] > 4 * se, (a, b)
     assert area["bound"]["total"] == standard["bound"]["total"] > a["mean"]
     assert area["fraction_of_bound"] > 0.85, area["fraction_of_bound"]  # 92.1% over 10,000 games
+
+
+def test_a_command_line_without_subcommand_is_an_evaluation(nets, tmp_path, capsys):
+    argv = ["--checkpoint", os.path.join(nets, "omn_conn.msgpack"), "--episodes", EPISODES, "--json",
+            "--out", str(tmp_path)]
+    implicit = json.loads(_run(argv, capsys).out)
+    explicit = json.loads(_run(["evaluate"] + argv, capsys).out)
+    assert implicit["command"] == "python -m eval.dcg " + " ".join(argv)
+    assert explicit["command"] == "python -m eval.dcg evaluate " + " ".join(argv)
+    for r in (implicit, explicit):
+        r.pop("seconds"), r.pop("command")
+    assert implicit == explicit
+    with pytest.raises(SystemExit):
+        cli.main(["--help"])
+    assert capsys.readouterr().out.startswith("usage: python -m eval.dcg [-h] (--checkpoint PATH | --net NAME)")
+    with pytest.raises(SystemExit):
+        cli.main(["figure", "--help"])
+    assert capsys.readouterr().out.startswith("usage: python -m eval.dcg figure [-h]")
+
+
+def test_settings_are_settled_once():
+    args = cli.build_parser().parse_args(["optimum", "--double-blind", "--energy", "10"])
+    s = cli.OptimumSettings.from_args(args)
+    assert s.game["strategies"] == cli.DOUBLE_BLIND_STRATEGIES and s.energy == 10.0 and s.progress
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.energy = 5.0
+    args = cli.build_parser().parse_args(["render", "--net", "vnn", "--strategy", "patrol,restricted"])
+    with pytest.raises(ValueError, match="one strategy"):
+        cli.RenderSettings.from_args(args)
+    args = cli.build_parser().parse_args(["figure", "all", "--no-cache", "--no-bound"])
+    f = cli.FigureSettings.from_args(args)
+    assert f.experiments == tuple(cli.EXPERIMENTS) and not f.cache.reuse and not f.play.bound

@@ -39,11 +39,14 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 
+from jaxdc.agents.a2c import aux_cross_entropy
 from jaxdc.core import grid
 from jaxdc.core.env import step_batch
 from jaxdc.dcg.env import DCG, EnvParams
 from jaxdc.dcg.opponents import OpponentState, in_fog
+from jaxdc.nets.omn_conn import OMN
 
 #: Strategies whose behaviour depends on the opponent's memory (``home``, ``target``, ``phase``).
 MEMORY_STRATEGIES = ("patrol",)
@@ -256,11 +259,6 @@ def supervised_omn(env: DCG, params: EnvParams, net, net_params, key, lr: float 
     ``evals`` rows ``{"updates", "train_loss", "train_accuracy", "accuracy"}``; ``accuracy`` is measured on
     ``eval_envs x eval_steps`` held-out steps of the same collector.
     """
-    import optax
-
-    from jaxdc.agents.a2c import aux_cross_entropy
-    from jaxdc.nets.omn_conn import OMN
-
     def rollout(obs, state, k, n_envs, steps):
         def step(carry, k_):
             obs, state = carry

@@ -1,4 +1,4 @@
-"""The exact full-information bound of the single-item DCG (jaxdc.dcg.optimal): hand-computed games,
+"""The exact full-information bound of the single-item DCG (jaxdc.dcg.exact.one_item): hand-computed games,
 brute force over every action sequence in the real env, the optimal plans replayed in the env, and
 heuristics that never beat it."""
 
@@ -9,7 +9,7 @@ import pytest
 
 from jaxdc.core import grid
 from jaxdc.dcg import DCG
-from jaxdc.dcg import optimal
+from jaxdc.dcg.exact import one_item
 
 from dcg_games import best_sequence, resets, simulate
 
@@ -48,7 +48,7 @@ def test_two_by_two_by_hand(counts, expected):
     #   which counts iff reward_when_caught: 1 or 2/3.
     # patrol: always 1 (it leaves the item's cell, or the collector waits for it to).
     env = DCG(grid_size=2, reward_area=1, history=1, reward_when_caught=counts)
-    out = optimal.full_information_bound(env, env.make_params(energy=15.0))
+    out = one_item.full_information_bound(env, env.make_params(energy=15.0))
     assert out["per_strategy"] == pytest.approx(dict(zip(env.strategies, expected)))
     assert out["total"] == pytest.approx(np.mean(expected)) and out["reward_area"] == 1
 
@@ -56,11 +56,11 @@ def test_two_by_two_by_hand(counts, expected):
 def test_energy_and_step_cap_bind():
     # The item on (2,2) of a 3 x 3 grid needs two moves: impossible with energy 1 or a step cap of 1.
     env = DCG(grid_size=3, reward_area=1, history=1)
-    assert optimal.full_information_bound(env, env.make_params(energy=1.0))["total"] == 0.0
-    assert optimal.full_information_bound(env, env.make_params(energy=15.0, max_steps=1))["total"] == 0.0
-    two = optimal.full_information_bound(env, env.make_params(energy=2.0))
+    assert one_item.full_information_bound(env, env.make_params(energy=1.0))["total"] == 0.0
+    assert one_item.full_information_bound(env, env.make_params(energy=15.0, max_steps=1))["total"] == 0.0
+    two = one_item.full_information_bound(env, env.make_params(energy=2.0))
     assert two["per_strategy"]["patrol"] > 0.0
-    assert optimal.full_information_bound(env, env.make_params(energy=float("inf")))["total"] >= two["total"]
+    assert one_item.full_information_bound(env, env.make_params(energy=float("inf")))["total"] >= two["total"]
 
 
 # -- brute force: every action sequence in the real env ---------------------------------------------
@@ -68,7 +68,7 @@ def test_energy_and_step_cap_bind():
 
 def all_reset_states(env, params):
     """Every reset state of a one-item game (strategy x opponent start/end x item cell) and its weight."""
-    sol_weight = optimal._reset_pairs(env)
+    sol_weight = one_item.reset_pairs(env)
     _, template = env.reset_env(jax.random.PRNGKey(0), params)
     n = env.grid_size
     rows = [(s, h, t, i) for s in range(len(env.strategies)) for h, t in zip(*np.nonzero(sol_weight > 0))
@@ -87,7 +87,7 @@ def all_reset_states(env, params):
 def test_matches_brute_force_over_all_action_sequences(area, horizon, energy, counts, tie):
     env = DCG(grid_size=3, reward_area=area, history=1, obs_history=False, reward_when_caught=counts)
     params = env.make_params(energy=energy, max_steps=horizon, chase_tie=tie)
-    sol = optimal.solve(env, params)
+    sol = one_item.solve(env, params)
     states = all_reset_states(env, params)
     want = predicted(sol, states)
     assert 0 < want.mean() < 1, "a degenerate case tests nothing"
@@ -102,16 +102,16 @@ def thesis_game():
     """The game of section 5.5.5 on a 4 x 4 grid (5 x 5 in docs/dcg.md), energy 6, reward area 2, step cap 30."""
     env = DCG(grid_size=4, reward_area=2, history=1, obs_history=False)
     params = env.make_params(energy=6.0, max_steps=30)
-    return env, params, optimal.solve(env, params)
+    return env, params, one_item.solve(env, params)
 
 
 def test_optimal_plans_collect_exactly_what_the_solver_says(thesis_game):
     env, params, sol = thesis_game
     states = resets(env, params, 600, seed=3)
-    got = simulate(env, params, optimal.optimal_policy(sol), states, sol.plans.shape[-1])
+    got = simulate(env, params, one_item.optimal_policy(sol), states, sol.plans.shape[-1])
     want = predicted(sol, states)
     np.testing.assert_array_equal(got, want)
-    bound = optimal.full_information_bound(env, params, solution=sol)["total"]
+    bound = one_item.full_information_bound(env, params, solution=sol)["total"]
     assert abs(got.mean() - bound) < 4 * np.sqrt(bound * (1 - bound) / got.size)
     assert 0.5 < bound < 1.0
 
@@ -128,15 +128,15 @@ def test_no_heuristic_beats_the_bound_in_any_game(thesis_game):
 def test_bound_per_reward_area_reuses_the_solution(thesis_game):
     env, params, sol = thesis_game
     n = env.grid_size
-    whole = optimal.full_information_bound(DCG(grid_size=n, history=1), params, solution=sol)["total"]
-    assert optimal.full_information_bound(env, params, n, solution=sol)["total"] == pytest.approx(whole)
+    whole = one_item.full_information_bound(DCG(grid_size=n, history=1), params, solution=sol)["total"]
+    assert one_item.full_information_bound(env, params, n, solution=sol)["total"] == pytest.approx(whole)
     # the bound of the square of side s is the item-count-weighted mix of the ring (L-shaped) areas
-    totals = [optimal.full_information_bound(env, params, s, solution=sol)["total"] for s in range(1, n + 1)]
+    totals = [one_item.full_information_bound(env, params, s, solution=sol)["total"] for s in range(1, n + 1)]
     assert 0.0 < min(totals) and max(totals) < 1.0
-    assert totals[1] * 4 == pytest.approx(totals[0] + 3 * optimal.bound_from_solution(sol, [n * n - 2, n * n - n - 2, n * n - n - 1])["total"])
+    assert totals[1] * 4 == pytest.approx(totals[0] + 3 * one_item.bound_from_solution(sol, [n * n - 2, n * n - n - 2, n * n - n - 1])["total"])
     with pytest.raises(ValueError, match="solution"):
-        optimal.full_information_bound(env, env.make_params(energy=7.0, max_steps=30), solution=sol)
-    one = optimal.full_information_bound(env, params, 1, solution=sol)
+        one_item.full_information_bound(env, env.make_params(energy=7.0, max_steps=30), solution=sol)
+    one = one_item.full_information_bound(env, params, 1, solution=sol)
     assert set(one["per_strategy"]) == set(env.strategies) and one["reward_area"] == 1
     assert one["total"] == pytest.approx(np.mean(list(one["per_strategy"].values())))
 
@@ -147,13 +147,13 @@ def test_bound_per_reward_area_reuses_the_solution(thesis_game):
 def test_bad_input():
     env = DCG(grid_size=3, reward_area=1, history=1)
     with pytest.raises(ValueError, match="chase_tie"):
-        optimal.solve(env, env.make_params(chase_tie="random"))
+        one_item.solve(env, env.make_params(chase_tie="random"))
     with pytest.raises(ValueError, match="max_energy"):
-        optimal.solve(env, env.make_params(energy=2.5))
+        one_item.solve(env, env.make_params(energy=2.5))
     with pytest.raises(ValueError, match="reward_area"):
-        optimal.full_information_bound(env, env.make_params(), reward_area=4)
+        one_item.full_information_bound(env, env.make_params(), reward_area=4)
     with pytest.raises(ValueError, match="grid_size"):
-        optimal.solve(DCG(grid_size=8, history=1), DCG(grid_size=8, history=1).make_params())
+        one_item.solve(DCG(grid_size=8, history=1), DCG(grid_size=8, history=1).make_params())
     batch = jax.vmap(lambda e: env.make_params().replace(max_energy=e))(jnp.array([3.0, 4.0]))
     with pytest.raises(ValueError, match="scalar"):
-        optimal.solve(env, batch)
+        one_item.solve(env, batch)

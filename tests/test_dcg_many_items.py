@@ -1,4 +1,4 @@
-"""The full-information optimum of many-item DCG games (jaxdc.dcg.game_optimum): brute force over every action
+"""The full-information optimum of many-item DCG games (jaxdc.dcg.exact.many_items): brute force over every action
 sequence in the env, agreement with the single-item solver, the optimal plans replayed in the env, and
 collectors that never beat it."""
 
@@ -9,9 +9,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from jaxdc.cli import eval_dcg as cli
 from jaxdc.core import grid
-from jaxdc.dcg import DCG, optimal
-from jaxdc.dcg import game_optimum as go
+from jaxdc.dcg import DCG
+from jaxdc.dcg.exact import many_items as go
+from jaxdc.dcg.exact import one_item
 
 from dcg_games import best_sequence, play_sequence, resets, simulate
 
@@ -64,7 +66,7 @@ def test_rule_readings_match_brute_force(rules):
 def test_one_item_agrees_with_the_single_item_solver():
     env = DCG(grid_size=4, reward_area=3, history=1, obs_history=False)
     params = env.make_params(energy=6.0, max_steps=30)
-    sol = optimal.solve(env, params)
+    sol = one_item.solve(env, params)
     states = resets(env, params, 200, seed=2)
     n = env.grid_size
     flat = lambda xy: np.asarray(xy)[:, 0] * n + np.asarray(xy)[:, 1]  # noqa: E731
@@ -150,8 +152,6 @@ def test_bad_input():
 
 
 def test_cli(tmp_path, capsys):
-    from eval import dcg as cli
-
     argv = ["optimum", "--grid-size", "3", "--total-reward", "3", "--energy", "4", "--episodes", "12",
             "--no-progress", "--json", "--out", str(tmp_path)]
     assert cli.main(argv) == 0

@@ -1,4 +1,4 @@
-"""The exact full-information bound of the single-item DCG (section 5.5.5; issue 5, "an exact yardstick").
+"""The exact full-information bound of the one-item DCG over all start states (section 5.5.5, Fig. 5.10).
 
 Section 5.5.5 plays the game of section 5.3 with one item of reward one in the
 *reward area* (the bottom-right ``s x s`` square, Fig. 5.10). Give the
@@ -111,7 +111,9 @@ def _scalar(params, name):
     return x.item()
 
 
-def _check_params(params):
+def check_params(params):
+    """``(max_energy, max_steps)`` of one setting, checked for the exact search: whole energy (or inf) and a
+    deterministic ``chase_tie``; ``ValueError`` otherwise."""
     energy = float(_scalar(params, "max_energy"))
     if not (math.isinf(energy) or (energy >= 1 and energy == math.floor(energy))):
         raise ValueError(f"max_energy must be a whole number >= 1 or inf for the exact bound, got {energy!r}")
@@ -124,7 +126,7 @@ def _check_params(params):
 # -- the opponent as a finite machine --------------------------------------------------------------
 
 
-def _reset_pairs(env) -> np.ndarray:
+def reset_pairs(env) -> np.ndarray:
     """``[C, C]`` probabilities of (start, patrol end) under :meth:`DCG.reset_env`."""
     c = env.grid_size**2
     starts = np.arange(1, c) if env.opponent_start == "not_base" else np.arange(c)
@@ -194,7 +196,7 @@ def _opponent_table(env, params, strategy: int):
     return ((flat(npos) * c + home[:, None]) * c + target[:, None]) * 2 + nphase
 
 
-def _opponent_machine(env, params, strategy: int, weight: np.ndarray):
+def opponent_machine(env, params, strategy: int, weight: np.ndarray):
     """Reachable opponent states merged into classes (Moore refinement).
 
     Returns ``(cls_next [K, C], cls_pos [K], init_class [C, C])``.
@@ -249,14 +251,15 @@ def captures(env, p, q2, p2):
     return free, met
 
 
-def _successors(n: int) -> np.ndarray:
+def successors(n: int) -> np.ndarray:
+    """``[N*N, 9]``: the flat cell each of the 9 actions leads to from each flat cell (moves clipped per axis)."""
     r, cc = np.divmod(np.arange(n * n), n)
     rr = np.clip(r[:, None] + grid.DELTAS_NP[None, :, 0], 0, n - 1)
     cl = np.clip(cc[:, None] + grid.DELTAS_NP[None, :, 1], 0, n - 1)
     return rr * n + cl
 
 
-def _local_machines(cls_next, cls_pos, init_b):
+def local_machines(cls_next, cls_pos, init_b):
     """Per initial class ``b``, the classes reachable from it, relabelled ``0 .. L-1`` (padded).
 
     Returns ``(next [B, L, C], pos [B, L])``; padding rows point to themselves.
@@ -288,11 +291,11 @@ def _local_machines(cls_next, cls_pos, init_b):
 def _search(env, energy: float, max_steps: int, nxt, opos):
     """Breadth-first search over ``(b, collector cell, energy level, local opponent state)``.
 
-    ``nxt``/``opos`` from :func:`_local_machines` (local state 0 is the reset
+    ``nxt``/``opos`` from :func:`local_machines` (local state 0 is the reset
     state). Returns ``(steps [B, C], plans [C, B, T])`` (see :class:`Solution`).
     """
     n, c = env.grid_size, env.grid_size**2
-    succ = _successors(n)
+    succ = successors(n)
     levels = 1 if math.isinf(energy) else int(energy)
     nb, width = opos.shape
     shape = (nb, c, levels, width)
@@ -359,17 +362,17 @@ def solve(env, params) -> Solution:
     """
     if env.grid_size > MAX_GRID_SIZE:
         raise ValueError(f"grid_size must be <= {MAX_GRID_SIZE} for the exact bound, got {env.grid_size}")
-    energy, max_steps = _check_params(params)
+    energy, max_steps = check_params(params)
     t0 = _time.perf_counter()
     c = env.grid_size**2
-    weight = _reset_pairs(env)
+    weight = reset_pairs(env)
     results, inits, classes = [], [], []
     for s in range(len(env.strategies)):
-        cls_next, cls_pos, init = _opponent_machine(env, params, s, weight)
+        cls_next, cls_pos, init = opponent_machine(env, params, s, weight)
         init_b, init_index = np.unique(init[init >= 0], return_inverse=True)
         table = np.full((c, c), -1, np.int64)
         table[init >= 0] = init_index.reshape(-1)
-        results.append(_search(env, energy, max_steps, *_local_machines(cls_next, cls_pos, init_b)))
+        results.append(_search(env, energy, max_steps, *local_machines(cls_next, cls_pos, init_b)))
         inits.append(table)
         classes.append(int(cls_next.shape[0]))
     nb = max(st.shape[0] for st, _ in results)
@@ -413,7 +416,7 @@ def full_information_bound(env, params, reward_area: int | None = None, solution
     """
     cells = env.reward_area_cells(reward_area)  # validates reward_area
     if solution is not None:
-        energy, max_steps = _check_params(params)
+        energy, max_steps = check_params(params)
         have = (solution.grid_size, solution.strategies, solution.max_energy, solution.max_steps)
         want = (env.grid_size, tuple(env.strategies), energy, max_steps)
         if have != want:

@@ -1,0 +1,417 @@
+"""Evaluate trained DCG collectors (section 5.5): reward, RPE, per strategy, opponent accuracy; figures; gameplay.
+
+Examples::
+
+    python -m eval.dcg --net omn_conn --episodes 10000 --json      # a shipped network
+    python -m eval.dcg --checkpoint runs/dcg-omn_conn-e15-s0        # a train.dcg run folder (or a .msgpack)
+    python -m eval.dcg --net imnn --energy 10 --double-blind
+    python -m eval.dcg --net omn_conn --reward-area 1               # Figs. 5.10-5.12, with the exact bound
+    python -m eval.dcg figure 5.6                                   # Figs. 5.6/5.7 from the shipped networks
+    python -m eval.dcg figure all --episodes 2000
+    python -m eval.dcg render --net omn_conn --strategy patrol --seed 3 --greedy --reward-area 2
+    python -m eval.dcg optimum --episodes 2000                      # the full-information bound, 10 items
+
+An evaluation writes its JSON atomically to ``--out`` (default
+``results/dcg``); ``--json`` prints exactly one JSON object. ``figure``
+writes ``results/dcg/figure_<experiment>.{json,csv,md}`` and
+``docs/img/dcg_fig<N>.png`` (evaluations are kept in ``runs/eval-cache/dcg/``
+and reused for the same parameter file and settings; ``--no-cache``
+re-runs them); ``render`` writes a PNG strip (Figs.
+5.13-5.15) and a GIF; ``optimum`` estimates the full-information bound of the
+standard game over sampled games (``jaxdc.dcg.exact.many_items``) and writes
+``results/dcg/optimum_<settings>.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import os
+import shlex
+import sys
+
+import jax
+
+from jaxdc.cli.args import positive_float, positive_int
+from jaxdc.core.trajectory import play_episode
+from jaxdc.dcg import learned as learned_lib
+from jaxdc.dcg.analysis.cache import EvaluationCache
+from jaxdc.dcg.analysis.claims import claims
+from jaxdc.dcg.analysis.evaluation import evaluate
+from jaxdc.dcg.analysis.experiment import (ExperimentSettings, group_key, network_pool, run_experiment,
+                                           stored_standard)
+from jaxdc.dcg.analysis.figures import EXPERIMENTS, FIGURES, missing
+from jaxdc.dcg.analysis.report import (figure_csv, figure_markdown, figure_payload, optimum_name, optimum_payload,
+                                       optimum_text, report, result_name)
+from jaxdc.dcg.env import CAPTURES, DCG, OPPONENT_STARTS, OUTCOMES, PATROL_TARGETS
+from jaxdc.dcg.exact.many_items import sampled_bound
+from jaxdc.dcg.opponents import CHASE_TIES, DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
+from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
+from jaxdc.viewer.bars import save_bar_chart, save_strategy_chart
+from jaxdc.viewer.media import save_animation, save_strip
+
+PROG = "python -m eval.dcg"
+RESULTS = os.path.join("results", "dcg")
+IMAGES = os.path.join("docs", "img")
+#: The subcommands; a command line that does not start with one of them is an ``evaluate``.
+SUBCOMMANDS = ("evaluate", "figure", "render", "optimum")
+DEFAULT_SUBCOMMAND = "evaluate"
+#: The experiments whose charts include the reward per opponent strategy.
+PER_STRATEGY_CHARTS = ("standard", "double_blind", "standard_5m")
+
+
+# -- argument types and groups ------------------------------------------------------------------
+def _strategies(text):
+    try:
+        return tuple(s.name for s in get_strategies(text))
+    except (TypeError, ValueError) as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _add_network(p, required=True):
+    what = p.add_mutually_exclusive_group(required=required)
+    what.add_argument("--checkpoint", metavar="PATH", help="a train.dcg run folder or an exported .msgpack")
+    what.add_argument("--net", metavar="NAME", help="a shipped network (jaxdc/assets/dcg/NAME.msgpack), "
+                      "e.g. vnn, imnn, emnn, omn_conn")
+
+
+def _add_strategy_set(p, default, default_text):
+    sets = p.add_mutually_exclusive_group()
+    sets.add_argument("--strategies", type=_strategies, default=default,
+                      help=f"comma-separated opponent strategies (default: {default_text})")
+    sets.add_argument("--double-blind", action="store_true",
+                      help=f"play {','.join(DOUBLE_BLIND_STRATEGIES)} (section 5.5.7, Figs. 5.18-5.19)")
+
+
+def _add_game(p):
+    p.add_argument("--energy", type=positive_float("--energy", allow_inf=True), default=None,
+                   help="maximum energy (default: as trained; 10/15/20 in Figs. 5.8-5.9)")
+    _add_strategy_set(p, None, "as trained")
+    p.add_argument("--reward-area", type=positive_int("--reward-area"), default=None, metavar="S",
+                   help="one unit item in the bottom-right S x S square (Figs. 5.10-5.12)")
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None,
+                   help="step cap (default: as trained, 100)")
+    p.add_argument("--greedy", action="store_true", help="argmax policy (default: sample from pi, as the thesis)")
+
+
+def _figure_order(fig: str):
+    return tuple(map(int, fig.split(".")))
+
+
+# -- the parser ---------------------------------------------------------------------------------
+def build_parser() -> argparse.ArgumentParser:
+    """The parser of ``python -m eval.dcg``: the subcommands ``evaluate`` (the default), ``figure``, ``render``
+    and ``optimum``; :func:`main` puts ``evaluate`` in front of a command line without a subcommand."""
+    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{" + ",".join(SUBCOMMANDS) + "}")
+
+    p = sub.add_parser("evaluate", prog=PROG, description=__doc__.split("\n\n")[0],
+                       help="evaluate one collector (the default)",
+                       epilog="subcommands: `figure FIG` (see `python -m eval.dcg figure -h`), "
+                              "`render` (see `python -m eval.dcg render -h`), "
+                              "`optimum` (see `python -m eval.dcg optimum -h`)")
+    _add_network(p)
+    _add_game(p)
+    p.add_argument("--episodes", type=positive_int("--episodes"), default=10_000)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--rpe-zero", choices=("exclude", "zero"), default="exclude",
+                   help="RPE of a game that used no energy: left out (default) or 0")
+    p.add_argument("--no-bound", action="store_true", help="with --reward-area: skip the exact bound")
+    p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
+    p.add_argument("--out", default=RESULTS, help="folder for the result JSON")
+    p.set_defaults(run=_evaluate, error=p.error)
+
+    p = sub.add_parser("figure", prog=f"{PROG} figure", help="re-make a thesis figure",
+                       description="Re-make the thesis' DCG bar charts (Figs. 5.6-5.19) with the "
+                                   "thesis' claims beside ours.")
+    p.add_argument("figure", choices=sorted(FIGURES, key=_figure_order) + ["all"],
+                   help="a thesis figure (its pair is made with it: 5.6 and 5.7 are one experiment)")
+    p.add_argument("--episodes", type=positive_int("--episodes"), default=10_000)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--nets-dir", default=None, help="folder of .msgpack parameter files (default: the shipped ones)")
+    p.add_argument("--greedy", action="store_true")
+    p.add_argument("--no-bound", action="store_true",
+                   help="skip the full-information bound (the exact one of the reward-area figure, the sampled "
+                        "one of Figs. 5.6 and 5.16)")
+    p.add_argument("--bound-episodes", type=positive_int("--bound-episodes"), default=2000,
+                   help="games of PRNGKey(0) the sampled bound of Figs. 5.6 and 5.16 is estimated over (2000; "
+                        "docs/dcg.md quotes 10,000)")
+    p.add_argument("--cache", default=os.path.join("runs", "eval-cache", "dcg"),
+                   help="folder of stored evaluations, reused for the same parameter file and settings")
+    p.add_argument("--no-cache", action="store_true", help="re-evaluate every bar")
+    p.add_argument("--out", default=RESULTS, help="folder for JSON/CSV/markdown")
+    p.add_argument("--img", default=IMAGES, help="folder for the PNGs")
+    p.set_defaults(run=_figure, error=p.error)
+
+    p = sub.add_parser("render", prog=f"{PROG} render", help="play one game and draw it",
+                       description="Play one game and draw it: a PNG strip like Figs. 5.13-5.15 and a GIF.")
+    _add_network(p)
+    p.add_argument("--strategy", type=_strategies, required=True, help="the opponent strategy, e.g. patrol")
+    p.add_argument("--seed", type=int, default=0, help="the game (same seed: same initial state for every network)")
+    p.add_argument("--energy", type=positive_float("--energy", allow_inf=True), default=None)
+    p.add_argument("--reward-area", type=positive_int("--reward-area"), default=None, metavar="S",
+                   help="one unit item in the bottom-right S x S square (as in Figs. 5.13-5.15)")
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=30,
+                   help="steps to play at most (default 30)")
+    p.add_argument("--greedy", action="store_true", help="deterministic policy (argmax), as Figs. 5.13-5.15")
+    p.add_argument("--cols", type=positive_int("--cols"), default=None, help="frames per row in the strip")
+    p.add_argument("--fps", type=positive_int("--fps"), default=4)
+    p.add_argument("--out", default=os.path.join(RESULTS, "render"), help="folder for the PNG and GIF")
+    p.set_defaults(run=_render, error=p.error)
+
+    p = sub.add_parser("optimum", prog=f"{PROG} optimum", help="estimate the full-information bound",
+                       description="Estimate the full-information bound of the DCG over sampled games: the "
+                                   "most reward any collector could take from each game, knowing the "
+                                   "opponent's strategy and hidden state (jaxdc.dcg.exact.many_items).")
+    p.add_argument("--grid-size", type=positive_int("--grid-size"), default=5, help="N (5 in the thesis)")
+    p.add_argument("--total-reward", type=positive_int("--total-reward"), default=10, help="unit rewards dropped")
+    p.add_argument("--energy", type=positive_float("--energy", allow_inf=True), default=15.0,
+                   help="maximum energy, a whole number or inf (15; 10/20 in Figs. 5.8-5.9)")
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=100, help="step cap (100)")
+    p.add_argument("--chase-tie", choices=CHASE_TIES[:2], default=CHASE_TIES[0],
+                   help="tie rule of 'moves towards' (deterministic ones only)")
+    _add_strategy_set(p, STANDARD_STRATEGIES, "the standard set of 5.5.1")
+    p.add_argument("--opponent-start", choices=OPPONENT_STARTS, default=OPPONENT_STARTS[0])
+    p.add_argument("--patrol-target", choices=PATROL_TARGETS, default=PATROL_TARGETS[0])
+    p.add_argument("--no-items-on-base", action="store_true", help="the drop leaves the base empty")
+    p.add_argument("--no-reward-when-caught", action="store_true",
+                   help="an item taken on the step the collector is caught does not count")
+    p.add_argument("--capture", choices=CAPTURES, default=CAPTURES[0],
+                   help="rule reading: 'opponent_moves' captures only when the opponent moves onto the collector")
+    p.add_argument("--safe-base", action="store_true", help="rule reading: no capture in the base")
+    p.add_argument("--opponent-out-of-base", action="store_true",
+                   help="rule reading: the opponent may not enter the base")
+    p.add_argument("--episodes", type=positive_int("--episodes"), default=2000, help="sampled games (2000)")
+    p.add_argument("--seed", type=int, default=0, help="the games' PRNG key")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
+    p.add_argument("--out", default=RESULTS, help="folder for the result JSON")
+    p.set_defaults(run=_optimum, error=p.error)
+    return parser
+
+
+# -- settled arguments --------------------------------------------------------------------------
+def _strategy_set(args):
+    return DOUBLE_BLIND_STRATEGIES if args.double_blind else args.strategies
+
+
+@dataclasses.dataclass(frozen=True)
+class EvaluateSettings:
+    """One evaluation: the collector (a run folder or file, or a shipped name), the game's changes, the games."""
+
+    checkpoint: str | None
+    net: str | None
+    energy: float | None
+    strategies: tuple | None
+    reward_area: int | None
+    max_steps: int | None
+    greedy: bool
+    episodes: int
+    seed: int
+    rpe_zero: str
+    bound: bool
+    json: bool
+    out: str
+
+    @classmethod
+    def from_args(cls, args) -> "EvaluateSettings":
+        return cls(args.checkpoint, args.net, args.energy, _strategy_set(args), args.reward_area, args.max_steps,
+                   args.greedy, args.episodes, args.seed, args.rpe_zero, not args.no_bound, args.json, args.out)
+
+
+@dataclasses.dataclass(frozen=True)
+class FigureSettings:
+    """One ``figure`` run: the experiments, the parameter files, how the bars are played, where results go."""
+
+    experiments: tuple
+    nets_dir: str | None
+    play: ExperimentSettings
+    cache: EvaluationCache
+    out: str
+    img: str
+
+    @classmethod
+    def from_args(cls, args) -> "FigureSettings":
+        names = tuple(EXPERIMENTS) if args.figure == "all" else (FIGURES[args.figure],)
+        play = ExperimentSettings(args.episodes, args.seed, args.greedy, not args.no_bound, args.bound_episodes)
+        return cls(names, args.nets_dir, play, EvaluationCache(args.cache, reuse=not args.no_cache), args.out,
+                   args.img)
+
+
+@dataclasses.dataclass(frozen=True)
+class RenderSettings:
+    """One drawn game: the collector, its opponent strategy and game, and the pictures."""
+
+    checkpoint: str | None
+    net: str | None
+    strategy: str
+    seed: int
+    energy: float | None
+    reward_area: int | None
+    max_steps: int
+    greedy: bool
+    cols: int | None
+    fps: int
+    out: str
+
+    @classmethod
+    def from_args(cls, args) -> "RenderSettings":
+        if len(args.strategy) != 1:
+            raise ValueError(f"--strategy takes one strategy, got {','.join(args.strategy)}")
+        return cls(args.checkpoint, args.net, args.strategy[0], args.seed, args.energy, args.reward_area,
+                   args.max_steps, args.greedy, args.cols, args.fps, args.out)
+
+
+@dataclasses.dataclass(frozen=True)
+class OptimumSettings:
+    """The sampled full-information bound: the game (constructor options and numeric settings), the games."""
+
+    game: dict  # DCG(...) keyword arguments
+    energy: float
+    max_steps: int
+    chase_tie: str
+    episodes: int
+    seed: int
+    progress: bool
+    json: bool
+    out: str
+
+    @classmethod
+    def from_args(cls, args) -> "OptimumSettings":
+        if not (math.isinf(args.energy) or args.energy == math.floor(args.energy)):
+            raise ValueError(f"--energy must be a whole number or inf for the exact bound, got {args.energy:g}")
+        game = dict(grid_size=args.grid_size, total_reward=args.total_reward, history=1, obs_history=False,
+                    strategies=_strategy_set(args), opponent_start=args.opponent_start,
+                    patrol_target=args.patrol_target, items_on_base=not args.no_items_on_base,
+                    reward_when_caught=not args.no_reward_when_caught, capture=args.capture,
+                    safe_base=args.safe_base, opponent_enters_base=not args.opponent_out_of_base)
+        return cls(game, args.energy, args.max_steps, args.chase_tie, args.episodes, args.seed,
+                   not args.no_progress, args.json, args.out)
+
+
+def _load(checkpoint, net):
+    return learned_lib.load(checkpoint) if checkpoint else learned_lib.shipped(net)
+
+
+# -- the subcommands ----------------------------------------------------------------------------
+def _evaluate(args, command) -> int:
+    s = EvaluateSettings.from_args(args)
+    enable_compilation_cache()
+    try:
+        learned = _load(s.checkpoint, s.net)
+        if not s.json:
+            print(f"Evaluating {learned.describe()}: {s.episodes} games, seed {s.seed} ...", file=sys.stderr)
+        r = evaluate(learned, episodes=s.episodes, seed=s.seed, energy=s.energy, strategies=s.strategies,
+                     reward_area=s.reward_area, max_steps=s.max_steps, greedy=s.greedy, rpe_zero=s.rpe_zero,
+                     bound=s.bound)
+    except (TypeError, ValueError) as e:
+        args.error(str(e))
+    r["command"] = command
+    path = atomic_write_json(os.path.join(s.out, result_name(r)), r)
+    if s.json:
+        print(json.dumps(r))
+    else:
+        print(report(r))
+        print(f"written to {path}", file=sys.stderr)
+    return 0
+
+
+def _figure(args, command) -> int:
+    s = FigureSettings.from_args(args)
+    enable_compilation_cache()
+    try:
+        pool, folder = network_pool(s.nets_dir)
+        if not pool:
+            raise ValueError(f"no DCG parameter files in {folder}: train them with `python -m train.dcg --net NET "
+                             "--ship` (or pass --nets-dir)")
+        for name in s.experiments:
+            exp = EXPERIMENTS[name]
+            print(f"Figs. {'/'.join(exp.figures)} ({exp.caption}): {s.play.episodes} games per bar", file=sys.stderr)
+            data = run_experiment(exp, pool, folder, s.play, s.cache, progress=lambda m: print(m, file=sys.stderr))
+            gone = missing(pool, exp)
+            if not any(data.results.values()):
+                print(f"  no network for this experiment; missing: {'; '.join(gone)}", file=sys.stderr)
+                continue
+            verdicts = claims(exp, data.results, stored_standard(s.out) if name == "double_blind" else None)
+            images = []
+            for fig_no, col in zip(exp.figures, ("reward", "rpe")):
+                path = os.path.join(s.img, f"dcg_fig{fig_no.replace('.', '_')}.png")
+                title = f"Fig. {fig_no} (ours): {'episode reward' if col == 'reward' else 'RPE'}\n{exp.caption}"
+                images.append(save_bar_chart(path, data.results, exp.groups, col, title, data.bounds,
+                                             [f"{exp.group_name} {group_key(g)}" for g in exp.groups]))
+            if name in PER_STRATEGY_CHARTS:
+                path = os.path.join(s.img, f"dcg_{name}_per_strategy.png")
+                p = save_strategy_chart(path, data.results[None],
+                                        f"Episode reward per opponent strategy (ours)\n{exp.caption}")
+                if p:
+                    images.append(p)
+            rel = [os.path.relpath(p, s.out) for p in images]
+            payload = figure_payload(exp, data, verdicts, gone, command=command, episodes=s.play.episodes,
+                                     seed=s.play.seed, greedy=s.play.greedy)
+            atomic_write_json(os.path.join(s.out, f"figure_{name}.json"), payload)
+            atomic_write(os.path.join(s.out, f"figure_{name}.csv"), figure_csv(data.results))
+            md = figure_markdown(exp, data, verdicts, gone, command, rel)
+            atomic_write(os.path.join(s.out, f"figure_{name}.md"), md)
+            print(md)
+    except (TypeError, ValueError) as e:
+        args.error(str(e))
+    return 0
+
+
+def _render(args, command) -> int:
+    try:
+        s = RenderSettings.from_args(args)
+    except ValueError as e:
+        args.error(str(e))
+    enable_compilation_cache()
+    try:
+        learned = _load(s.checkpoint, s.net)
+        env, params = learned.game(energy=s.energy, strategies=(s.strategy,), reward_area=s.reward_area,
+                                   max_steps=s.max_steps)
+        states = play_episode(env, params, learned.policy(s.greedy), jax.random.PRNGKey(s.seed), s.max_steps)
+    except (TypeError, ValueError) as e:
+        args.error(str(e))
+    last = states[-1]
+    stem = (f"dcg_{learned.net_name}_{s.strategy}_s{s.seed}" + ("_greedy" if s.greedy else "")
+            + (f"_area{s.reward_area}" if s.reward_area else ""))
+    strip = save_strip(env, params, states, os.path.join(s.out, stem + ".png"), cols=s.cols)
+    gif = save_animation(env, params, states, os.path.join(s.out, stem + ".gif"), fps=s.fps)
+    print(f"{learned.net_name} vs {s.strategy}, seed {s.seed}: {len(states) - 1} steps, "
+          f"reward {float(last.ep_reward):g}, outcome {OUTCOMES[int(last.outcome)]}")
+    print(f"written {strip} and {gif}")
+    return 0
+
+
+def _optimum(args, command) -> int:
+    try:
+        s = OptimumSettings.from_args(args)
+    except ValueError as e:
+        args.error(str(e))
+    try:
+        env = DCG(**s.game)
+        params = env.make_params(energy=s.energy, max_steps=s.max_steps, chase_tie=s.chase_tie)
+        res = sampled_bound(env, params, jax.random.PRNGKey(s.seed), s.episodes, progress=s.progress)
+    except (TypeError, ValueError, NotImplementedError) as e:
+        args.error(str(e))
+    out = optimum_payload(res, env, energy=s.energy, max_steps=s.max_steps, chase_tie=s.chase_tie, seed=s.seed,
+                          command=command)
+    path = os.path.join(s.out, optimum_name(out, s.episodes))
+    atomic_write_json(path, out)
+    if s.json:
+        print(json.dumps(out))
+    else:
+        print(optimum_text(out["optimum"], s.episodes))
+        print(f"written {path}")
+    return 0
+
+
+def main(argv=None) -> int:
+    """Run ``python -m eval.dcg`` on ``argv`` (default ``sys.argv[1:]``); a command line that does not start
+    with a subcommand is an evaluation (``evaluate``)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    explicit = bool(argv) and argv[0] in SUBCOMMANDS
+    args = build_parser().parse_args(argv if explicit else [DEFAULT_SUBCOMMAND, *argv])
+    command = f"{PROG} " + (f"{argv[0]} {shlex.join(argv[1:])}" if explicit else shlex.join(argv))
+    return args.run(args, command)

@@ -1,0 +1,48 @@
+"""Stored evaluations of the section-5.5 figures: one JSON file per parameter file and settings.
+
+An evaluation of 10,000 games per bar takes minutes; :class:`EvaluationCache`
+keeps each result under a digest of the parameter file (its bytes and its
+metadata file) and the settings, so a figure re-made with the same networks and
+settings reads them instead of playing again. A result of the settings alone
+(the sampled full-information bound of a game, which no parameter file
+changes) is stored as ``bound_<digest>.json``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+
+from jaxdc.io import atomic_write_json
+
+
+@dataclasses.dataclass(frozen=True)
+class EvaluationCache:
+    """A folder of stored results; ``reuse=False`` never reads them (every result is computed and stored)."""
+
+    folder: str
+    reuse: bool = True
+
+    def path(self, blob: str | None, settings: dict) -> str:
+        """``<folder>/<sha256>.json``: one result of the parameter file ``blob`` (a ``.msgpack`` path) with
+        ``settings``; ``blob=None``: a result of the settings alone (``bound_<sha256>.json``)."""
+        digest = hashlib.sha256()
+        for path in () if blob is None else (blob, blob[: -len(".msgpack")] + ".json"):
+            with open(path, "rb") as f:
+                digest.update(f.read())
+        digest.update(json.dumps(settings, sort_keys=True, default=list).encode())
+        return os.path.join(self.folder, ("bound_" if blob is None else "") + digest.hexdigest()[:24] + ".json")
+
+    def load(self, blob: str | None, settings: dict) -> dict | None:
+        """The stored result of the same file with the same settings, ``None`` if there is none (or no reuse)."""
+        path = self.path(blob, settings)
+        if not self.reuse or not os.path.isfile(path):
+            return None
+        with open(path) as f:
+            return json.load(f)
+
+    def store(self, blob: str | None, settings: dict, result: dict) -> str:
+        """Store ``result`` (atomically) and return its path."""
+        return atomic_write_json(self.path(blob, settings), result)

@@ -1,0 +1,66 @@
+"""One evaluation of a trained DCG collector as the section-5.5 statistics, with the exact bound where it applies.
+
+:func:`evaluate` plays a :class:`jaxdc.dcg.learned.Learned` collector in the
+game it was trained in, with the given changes (energy, strategy set, reward
+area, step cap), and returns one JSON-able dict: the statistics of
+:func:`jaxdc.dcg.evaluate.summarize` plus the network, its source and the game.
+In a reward-area game (Figs. 5.10-5.12) it adds the exact full-information
+bound of :mod:`jaxdc.dcg.exact.one_item` and each reward as a fraction of it;
+:class:`ExactBounds` solves that bound once per game for a caller that
+evaluates many networks in the same game.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+import jax
+
+from jaxdc.dcg.evaluate import evaluate_network, summarize
+from jaxdc.dcg.exact.one_item import full_information_bound
+
+
+class ExactBounds:
+    """The exact full-information bounds of reward-area games, each solved once per instance."""
+
+    def __init__(self):
+        self._solved = {}
+
+    def __call__(self, env, params) -> dict:
+        """:func:`jaxdc.dcg.exact.one_item.full_information_bound` of ``env`` with ``params``."""
+        key = (env, float(params.max_energy), int(params.max_steps), int(params.chase_tie))
+        if key not in self._solved:
+            self._solved[key] = full_information_bound(env, params)
+        return self._solved[key]
+
+
+def evaluate(learned, *, episodes, seed, energy=None, strategies=None, reward_area=None, max_steps=None,
+             greedy=False, rpe_zero="exclude", bound=True, bounds: ExactBounds | None = None) -> dict:
+    """The section-5.5 statistics of ``learned`` in its game with the given changes, as one JSON-able dict.
+
+    ``None`` keeps a setting as trained. With ``reward_area`` and ``bound``, the exact bound of that game
+    (from ``bounds`` when given) and each reward's fraction of it are added.
+    """
+    env, params = learned.game(energy=energy, strategies=strategies, reward_area=reward_area, max_steps=max_steps)
+    t0 = time.perf_counter()
+    final = evaluate_network(env, params, learned.net, learned.params, jax.random.PRNGKey(seed), episodes, greedy)
+    jax.block_until_ready(final)
+    out = summarize(final, env.strategies, rpe_zero)
+    out["seconds"] = round(time.perf_counter() - t0, 3)
+    out["net"] = learned.net_name
+    out["alpha"] = learned.metadata.get("alpha")
+    out["source"] = os.path.relpath(learned.source) if os.path.exists(learned.source) else learned.source
+    out["setting"] = {"grid_size": env.grid_size, "total_reward": env.total_reward,
+                      "energy": float(params.max_energy), "max_steps": int(params.max_steps),
+                      "strategies": list(env.strategies), "reward_area": reward_area,
+                      "history": learned.setting()["history"], "trained_steps": learned.steps}
+    out["seed"], out["greedy"] = seed, bool(greedy)
+    if reward_area is not None and bound:
+        b = (bounds or ExactBounds())(env, params)
+        out["bound"] = {"total": b["total"], "per_strategy": b["per_strategy"]}
+        out["fraction_of_bound"] = out["reward"]["mean"] / b["total"] if b["total"] > 0 else None
+        for name, s in out["per_strategy"].items():
+            v = b["per_strategy"].get(name)
+            s["fraction_of_bound"] = s["reward"]["mean"] / v if v else None
+    return out

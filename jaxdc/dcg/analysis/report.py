@@ -1,0 +1,145 @@
+"""Results of section 5.5 as text: one evaluation's report and file name, a figure's tables and JSON payload,
+and the sampled full-information bound's record.
+
+These turn the dicts of :func:`jaxdc.dcg.analysis.evaluation.evaluate`,
+:func:`jaxdc.dcg.analysis.experiment.run_experiment` and
+:func:`jaxdc.dcg.exact.many_items.sampled_bound` into what ``python -m eval.dcg``
+prints and writes; they compute nothing.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import os
+
+import numpy as np
+
+from jaxdc.dcg.analysis.claims import Verdict
+from jaxdc.dcg.analysis.experiment import ExperimentResults, group_key
+from jaxdc.dcg.analysis.figures import Experiment
+from jaxdc.dcg.opponents import DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES
+
+
+# -- one evaluation -------------------------------------------------------------------------------
+def result_name(r: dict) -> str:
+    """The file name of an evaluation: ``eval_<net>[_a<alpha>]_e<energy>_<set>[_area<S>][_greedy]_s<seed>.json``."""
+    s = r["setting"]
+    sets = "standard" if tuple(s["strategies"]) == STANDARD_STRATEGIES else (
+        "double_blind" if tuple(s["strategies"]) == DOUBLE_BLIND_STRATEGIES else "-".join(s["strategies"]))
+    parts = [f"eval_{r['net']}"]
+    if r["net"] == "emnn" and r.get("alpha") is not None:
+        parts.append(f"a{r['alpha']:g}")
+    parts += [f"e{s['energy']:g}", sets]
+    if s["reward_area"] is not None:
+        parts.append(f"area{s['reward_area']}")
+    if r["greedy"]:
+        parts.append("greedy")
+    parts.append(f"s{r['seed']}")
+    return "_".join(parts) + ".json"
+
+
+def _line(r: dict) -> str:
+    acc = r["opponent_accuracy"]
+    text = (f"reward {r['reward']['mean']:.3f} ± {r['reward']['sd']:.3f}   RPE {r['rpe']['mean']:.4f} ± "
+            f"{r['rpe']['sd']:.4f}   steps {r['steps']['mean']:.1f}")
+    if acc is not None:
+        text += f"   opponent accuracy {100 * acc:.1f}%"
+    if r.get("fraction_of_bound") is not None:
+        text += f"   {100 * r['fraction_of_bound']:.1f}% of the bound {r['bound']['total']:.4f}"
+    return text
+
+
+def report(r: dict) -> str:
+    """The text report of one evaluation: totals, outcomes and one line per strategy."""
+    lines = [f"all ({r['episodes']} games)".ljust(24) + _line(r),
+             "outcomes: " + ", ".join(f"{k} {v}" for k, v in r["outcomes"].items())]
+    for name, s in r["per_strategy"].items():
+        lines.append(f"{name} ({s['episodes']})".ljust(24) + _line(s))
+    return "\n".join(lines)
+
+
+# -- one figure -----------------------------------------------------------------------------------
+def figure_csv(results: dict) -> str:
+    """One CSV row per bar and strategy (``all`` first) of ``results[group][label]``."""
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(["group", "network", "strategy", "episodes", "reward_mean", "reward_sd", "rpe_mean", "rpe_sd",
+                "energy_mean", "steps_mean", "opponent_accuracy", "fraction_of_bound", "file", "note"])
+    for g, row in results.items():
+        for lb, r in row.items():
+            for strat, s in [("all", r)] + list(r["per_strategy"].items()):
+                w.writerow([group_key(g), lb, strat, s["episodes"], s["reward"]["mean"], s["reward"]["sd"],
+                            s["rpe"]["mean"], s["rpe"]["sd"], s["energy"]["mean"], s["steps"]["mean"],
+                            s.get("opponent_accuracy"), s.get("fraction_of_bound"), r["file"], r["note"]])
+    return buf.getvalue()
+
+
+def figure_markdown(exp: Experiment, data: ExperimentResults, verdicts: list[Verdict], missing: list[str],
+                    command: str, images: list[str]) -> str:
+    """The markdown section of one experiment: the command, its images, one table row per bar, the claims."""
+    results = data.results
+    lines = [f"### Figs. {' and '.join(exp.figures)}: {exp.caption}", "", f"`{command}`", ""]
+    for img in images:
+        lines.append(f"![{os.path.basename(img)}]({img})")
+    lines += ["", "| " + (exp.group_name + " | " if exp.group_name else "") +
+              "network | reward | RPE | opponent accuracy | " + ("bound / fraction | " if data.bounds else "")
+              + " | ".join(f"{s} reward" for s in exp.strategies) + " | note |",
+              "|" + "---|" * (5 + bool(exp.group_name) + bool(data.bounds) + len(exp.strategies))]
+    for g, row in results.items():
+        for lb, r in row.items():
+            acc = r["opponent_accuracy"]
+            cells = ([group_key(g)] if exp.group_name else []) + [
+                lb, f"{r['reward']['mean']:.3f} ± {r['reward']['sd']:.3f}",
+                f"{r['rpe']['mean']:.4f} ± {r['rpe']['sd']:.4f}", "—" if acc is None else f"{100 * acc:.1f}%"]
+            if data.bounds:
+                b = data.bounds.get(g)
+                fr = r.get("fraction_of_bound")
+                cells.append("—" if b is None else f"{b['total']:.4f} / " + ("—" if fr is None else f"{100 * fr:.1f}%"))
+            cells += [f"{r['per_strategy'][s]['reward']['mean']:.3f}" if s in r["per_strategy"] else "—"
+                      for s in exp.strategies]
+            cells.append(r["note"] or "")
+            lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "| thesis claim | ours | agrees |", "|---|---|---|"]
+    lines += [f"| {c} | {o} | {a} |" for c, o, a in verdicts]
+    if missing:
+        lines += ["", "Missing networks (no parameter file trained as the thesis did): " + "; ".join(missing) + "."]
+    return "\n".join(lines) + "\n"
+
+
+def figure_payload(exp: Experiment, data: ExperimentResults, verdicts: list[Verdict], missing: list[str], *,
+                   command: str, episodes: int, seed: int, greedy: bool) -> dict:
+    """The JSON record of one experiment: its settings, every bar, the bounds, the claims and what is missing."""
+    return {"experiment": exp.name, "figures": list(exp.figures), "caption": exp.caption, "command": command,
+            "episodes": episodes, "seed": seed, "greedy": greedy,
+            "results": {group_key(g): row for g, row in data.results.items()},
+            "bounds": {group_key(g): b for g, b in data.bounds.items()},
+            "claims": [{"claim": c, "ours": o, "agrees": a} for c, o, a in verdicts], "missing": missing}
+
+
+# -- the sampled full-information bound ------------------------------------------------------------
+def optimum_payload(res: dict, env, *, energy: float, max_steps: int, chase_tie: str, seed: int,
+                    command: str) -> dict:
+    """The JSON record of :func:`jaxdc.dcg.exact.many_items.sampled_bound`'s ``res`` (its per-game rewards
+    become a histogram)."""
+    res = dict(res)
+    rewards = res.pop("rewards")
+    return {"optimum": res, "env": repr(env), "energy": energy, "max_steps": max_steps,
+            "chase_tie": chase_tie, "seed": seed,
+            "reward_histogram": {f"{v:g}": int(c) for v, c in zip(*np.unique(rewards, return_counts=True))},
+            "command": command}
+
+
+def optimum_name(record: dict, episodes: int) -> str:
+    """``optimum_<tag>.json``: the tag a digest of the game, its settings, the seed and the number of games."""
+    tag = hashlib.sha1(record["env"].encode() + f"{record['energy']}|{record['max_steps']}|{record['chase_tie']}|"
+                       f"{record['seed']}|{episodes}".encode()).hexdigest()[:8]
+    return f"optimum_{tag}.json"
+
+
+def optimum_text(res: dict, episodes: int) -> str:
+    """The one-line summary of the sampled bound."""
+    return (f"full-information bound over {episodes} games: {res['mean']:.3f} +- {res['se']:.3f} (SE), "
+            f"SD {res['sd']:.3f}; " + ", ".join(f"{k} {v['mean']:.3f}" for k, v in res["per_strategy"].items())
+            + f"; {res['seconds']:.0f} s")

@@ -1,0 +1,8 @@
+"""Exact yardsticks of the DCG: what a collector that knew everything could collect.
+
+* :mod:`jaxdc.dcg.exact.one_item` -- the one-item game of section 5.5.5 (Fig. 5.10),
+  solved for every start state at once: the exact full-information bound of a
+  reward area, and plans that reach it.
+* :mod:`jaxdc.dcg.exact.many_items` -- the optimum of one sampled many-item game
+  (the standard game of 5.5.1), and its mean over sampled games.
+"""
