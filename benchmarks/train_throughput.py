@@ -85,10 +85,10 @@ TARGET_DCG_1M_S = 300.0
 
 
 def ppo_options() -> dict:
-    """The :class:`~jaxdc.agents.a2c.A2CConfig` fields of the PPO-style option, as ``train.ship.PPO`` passes them
-    to ``train.dcp`` (docs/learning.md); the ``jaxdc enn ppo`` rows time them (``num_envs`` from ``--ppo-envs``)."""
-    from train.dcp import build_parser
-    from train.ship import PPO
+    """The :class:`~jaxdc.agents.a2c.A2CConfig` fields of the PPO-style option, as ``jaxdc.training.ship.PPO``
+    passes them to ``train.dcp`` (docs/learning.md); the ``jaxdc enn ppo`` rows time them (``num_envs`` from ``--ppo-envs``)."""
+    from jaxdc.cli.train_dcp import build_parser
+    from jaxdc.training.ship import PPO
 
     a = build_parser().parse_args(PPO)
     assert a.t_max == T_MAX, (a.t_max, T_MAX)
@@ -125,7 +125,7 @@ def measured_gflops(size: int = 1024, repeats: int = 5) -> float:
 
 # -- jaxdc -----------------------------------------------------------------------------------
 def make_trainer(net_name: str, num_envs: int, game: str = "dcp", total_steps: int = 1 << 30, options=None):
-    """A2C :class:`~jaxdc.agents.a2c.Trainer` of ``net_name`` on the benchmark env (``t_max`` 32).
+    """A2C :class:`~jaxdc.agents.common.Trainer` of ``net_name`` on the benchmark env (``t_max`` 32).
 
     ``total_steps`` only sets the learning-rate schedule; it is large so that the timed updates
     run at a nonzero rate. ``options``: further :class:`~jaxdc.agents.a2c.A2CConfig` fields

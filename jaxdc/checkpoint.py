@@ -61,15 +61,19 @@ def read_metadata(directory, step: int | None = None) -> dict:
         raise ValueError(f"checkpoint {directory} step {step}: metadata unreadable (corrupt?): {e}") from e
 
 
-def restore(directory, target, expected: dict | None = None, step: int | None = None):
+def restore(directory, target, expected: dict | None = None, step: int | None = None, upgrade=None):
     """Restore checkpoint ``step`` (default: latest) into the structure of ``target``: ``(state, metadata)``.
 
     ``expected`` holds metadata entries that must match exactly (e.g. the
     network name and grid size); every array must have ``target``'s shape
-    and dtype.
+    and dtype. ``upgrade`` (e.g. :func:`jaxdc.training.metadata.upgrade`)
+    turns the stored metadata into the current format before it is compared
+    and returned.
     """
     step = _pick(directory, step)
     metadata = read_metadata(directory, step)
+    if upgrade is not None:
+        metadata = upgrade(metadata)
     mismatched = {k: (metadata.get(k, "<missing>"), v) for k, v in (expected or {}).items()
                   if _jsonish(metadata.get(k, "<missing>")) != _jsonish(v)}
     if mismatched:

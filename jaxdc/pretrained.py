@@ -1,10 +1,13 @@
 """Trained network parameters as small files: shipped with the package and exported from runs.
 
 One parameter file is a single ``.msgpack`` (flax serialization of the
-parameter pytree) with a JSON sidecar ``.json`` of metadata: at least the
-network name (``"net"``) and the problem (``"problem"``: ``"dcp"`` or
-``"dcg"``), plus whatever the writer needs to rebuild the environment and to
-say how the file was made (settings, steps, seed, the command that made it).
+parameter pytree) with a JSON sidecar ``.json`` of metadata: its format
+(``"format"``, :mod:`jaxdc.training.metadata`), the network name
+(``"net"``) and the problem (``"problem"``: ``"dcp"`` or ``"dcg"``), plus
+whatever the writer needs to rebuild the environment and to say how the file
+was made (settings, steps, seed, the command that made it). Metadata of an
+older format is upgraded on load (:func:`jaxdc.training.metadata.upgrade`), so
+files of every format read the same.
 
 The shipped files live in ``jaxdc/assets/<problem>/<name>.msgpack``;
 :func:`shipped` finds one by name. :func:`load` checks the metadata against
@@ -27,6 +30,7 @@ import numpy as np
 from flax import serialization
 
 from jaxdc.io import atomic_write, atomic_write_json
+from jaxdc.training.metadata import FORMAT, upgrade
 
 ASSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "assets")
 
@@ -56,7 +60,8 @@ def save(path, params, metadata: dict) -> str:
     """Write ``params`` and ``metadata`` (JSON-able; must name ``net`` and ``problem``) atomically.
 
     Returns the ``.msgpack`` path. The sidecar is written after the parameters,
-    so a file pair whose sidecar exists is complete.
+    so a file pair whose sidecar exists is complete; it records the current
+    ``"format"`` (:data:`jaxdc.training.metadata.FORMAT`).
     """
     for key in ("net", "problem"):
         if key not in metadata:
@@ -64,20 +69,24 @@ def save(path, params, metadata: dict) -> str:
     blob, meta = _paths(path)
     tree = jax.tree_util.tree_map(np.asarray, jax.device_get(params))
     atomic_write(blob, serialization.msgpack_serialize(serialization.to_state_dict(tree)))
-    atomic_write_json(meta, dict(metadata))
+    atomic_write_json(meta, {"format": FORMAT, **{k: v for k, v in metadata.items() if k != "format"}})
     return blob
 
 
 def read_metadata(path) -> dict:
-    """The metadata sidecar of the parameter file ``path``."""
+    """The metadata sidecar of the parameter file ``path``, in the current format."""
     blob, meta = _paths(path)
     if not os.path.isfile(meta):
         raise ValueError(f"parameter file {blob}: metadata {meta} not found (was it written by jaxdc.pretrained.save?)")
     try:
         with open(meta) as f:
-            return json.load(f)
+            stored = json.load(f)
     except (OSError, json.JSONDecodeError) as e:
         raise ValueError(f"parameter file {blob}: metadata {meta} unreadable: {e}") from e
+    try:
+        return upgrade(stored)
+    except ValueError as e:
+        raise ValueError(f"parameter file {blob}: {e}") from None
 
 
 def load(path, **expected) -> tuple[dict, dict]:
@@ -144,7 +153,7 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         if not checkpoint.steps(ckpt):
             raise ValueError(f"{source}: no orbax checkpoint found (expected a train.{problem} run folder "
                              "with checkpoints/, or a .msgpack parameter file)")
-        meta = dict(checkpoint.read_metadata(ckpt), problem=problem)
+        meta = upgrade(dict(checkpoint.read_metadata(ckpt), problem=problem))
     else:
         blob, _ = _paths(path)
         if not os.path.isfile(blob):
@@ -166,14 +175,15 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         raise ValueError(f"{source} holds the network of seed {meta.get('seed')}, not of run_seed {run_seed}")
     if os.path.isdir(path):
         if not seeds:
-            state, meta = checkpoint.restore(ckpt, restore_target(name, meta, source), {"net": name})
+            state, meta = checkpoint.restore(ckpt, restore_target(name, meta, source), {"net": name},
+                                             upgrade=upgrade)
             return name, state.params, dict(meta, problem=problem, updates=checkpoint.latest_step(ckpt)), ckpt
         if run_seed not in seeds:
             raise ValueError(f"{source} holds the runs of seeds {seeds}: choose one with run_seed "
                              f"(eval's --run-seed), got {run_seed}")
         target = jax.tree_util.tree_map(lambda x: jnp.stack([x] * len(seeds)),
                                         restore_target(name, meta, source))
-        state, meta = checkpoint.restore(ckpt, target, {"net": name})
+        state, meta = checkpoint.restore(ckpt, target, {"net": name}, upgrade=upgrade)
         i = seeds.index(run_seed)
         params = jax.tree_util.tree_map(lambda x: x[i], state.params)
         meta = {k: v for k, v in meta.items() if k != "seeds"}

@@ -220,9 +220,10 @@ def test_aux_head_cross_entropy_and_wiring():
     np.testing.assert_allclose(float(ce), -(np.log(0.5) + np.log(0.1)) / 2, rtol=1e-6)
     assert float(acc) == 0.5
 
-    class WithAux(nn.Module):
+    class WithAux(nn.Module):  # declares the trainer contract (jaxdc.agents.common.Network)
         has_aux = True
         uses_heuristics = False
+        aux_params = ()
         num_actions = 9
 
         @nn.compact

@@ -117,7 +117,7 @@ def test_missing_or_corrupt_checkpoint_is_a_clear_error(tmp_path, capsys):
 
 
 def test_run_folder_of_train_dcp(tmp_path, capsys):
-    from train import dcp as train_cli
+    from jaxdc.cli import train_dcp as train_cli
 
     run = tmp_path / "run"
     assert train_cli.main(["--net", "linear", "--grid-size", "5", "--total-reward", "6", "--steps", "64",

@@ -91,3 +91,18 @@ def test_eqn_q_values_are_the_weighted_sum_of_heuristics():
     assert q.shape == (B, 9)
     np.testing.assert_allclose(np.asarray(q), np.einsum("bia,bia->ba", w, np.asarray(heur)) + b, rtol=1e-5, atol=1e-5)
     assert "value_out" not in params["params"]
+
+
+def test_every_network_declares_the_trainer_contract():
+    """The attributes a trainer reads (jaxdc.agents.common.Network) are declared by every network, not flax fields."""
+    from jaxdc.agents.common import Network, check_network
+    from jaxdc.nets import EQN, make_dcg_net, make_net
+
+    nets = [make_net(n) for n in ("enn", "linear", "cnn")] + [EQN()] + [make_dcg_net(n) for n in
+                                                                       ("vnn", "imnn", "emnn", "omn_conn")]
+    for net in nets:
+        assert isinstance(net, Network) and check_network(net) is net
+        assert isinstance(net.uses_heuristics, bool) and isinstance(net.has_aux, bool)
+        assert isinstance(net.aux_params, tuple) and isinstance(net.num_actions, int)
+    with pytest.raises(TypeError, match="lacks"):
+        check_network(object())

@@ -1,6 +1,7 @@
 """train.ship: the commands that regenerate the shipped DCP networks."""
 
-from train import ship
+from jaxdc.cli import train_ship
+from jaxdc.training import ship
 
 
 def test_train_command_uses_the_given_steps_unless_the_entry_fixes_them():
@@ -33,7 +34,7 @@ def test_bad_steps_is_a_usage_error_naming_the_flag(capsys):
     import pytest
 
     with pytest.raises(SystemExit) as e:
-        ship.main(["--steps", "0", "--only", "enn"])
+        train_ship.main(["--steps", "0", "--only", "enn"])
     assert e.value.code == 2 and "--steps must be an integer >= 1, got 0" in capsys.readouterr().err
 
 
@@ -53,7 +54,7 @@ def test_every_strong_dcg_file_has_an_entry_whose_command_trains_it():
     import shlex
 
     from jaxdc import pretrained
-    from train import dcg as train_dcg
+    from jaxdc.cli import train_dcg
 
     folder = os.path.join(pretrained.ASSETS, "dcg")
     files = {f[: -len(".msgpack")] for f in os.listdir(folder) if f.endswith(".msgpack") and "_strong" in f}
@@ -73,5 +74,5 @@ def test_export_only_refuses_the_dcg_entries(capsys):
     import pytest
 
     with pytest.raises(SystemExit) as e:
-        ship.main(["--export-only", "--only", "vnn_strong"])
+        train_ship.main(["--export-only", "--only", "vnn_strong"])
     assert e.value.code == 2 and "written by train.dcg --ship" in capsys.readouterr().err

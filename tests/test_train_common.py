@@ -1,4 +1,4 @@
-"""train.common: the one definition of the A2C flags, shared by train.dcp and train.dcg."""
+"""jaxdc.cli.train_common: the one definition of the A2C flags, shared by train.dcp and train.dcg."""
 
 from __future__ import annotations
 
@@ -7,9 +7,8 @@ import dataclasses
 import pytest
 
 from jaxdc.agents.a2c import A2CConfig
-from train import common
-from train import dcg as train_dcg
-from train import dcp as train_dcp
+from jaxdc.cli import train_common as common
+from jaxdc.cli import train_dcg, train_dcp
 
 #: A value off the default for every A2CConfig field a flag sets (the command-line text, the parsed value).
 OFF_DEFAULT = {

@@ -14,7 +14,7 @@ import pytest
 from jaxdc import checkpoint, pretrained
 from jaxdc.core.rollout import run_episodes
 from jaxdc.nets import make_dcg_net
-from train import dcg as cli
+from jaxdc.cli import train_dcg as cli
 
 # 3x3 grid, 3 items, the restricted chaser, k = 2; 150 updates of 16 envs x 8 steps, checkpoints at 75 and 150.
 TINY = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies", "restricted", "--history", "2",
@@ -111,8 +111,8 @@ def test_reward_area_training_is_recorded_and_replayed(tmp_path):
     env, _ = learned.game(reward_area=1)  # evaluated on another reward area
     assert env.reward_area == 1 and env.total_reward == 1
     assert "bottom-right 2x2 square" in learned.describe()
-    # a run without the option records no reward_area, so runs made before it still resume
-    assert "reward_area" not in cli.Run(cli.build_parser().parse_args(TINY + ["--out", out])).metadata
+    # a run without the option records reward_area None (metadata format 2; older files are upgraded on load)
+    assert cli.Run(cli.build_parser().parse_args(TINY + ["--out", out])).metadata["reward_area"] is None
     # --min-reward-area: a mix of sizes in training; a figure's size is played alone
     run = cli.Run(cli.build_parser().parse_args(TINY + ["--reward-area", "3", "--min-reward-area", "1",
                                                         "--out", str(tmp_path / "mix")]))

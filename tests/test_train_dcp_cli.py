@@ -13,8 +13,8 @@ import pytest
 
 from jaxdc import checkpoint
 from jaxdc.agents import a2c
-from train import common
-from train import dcp as cli
+from jaxdc.cli import train_common as common
+from jaxdc.cli import train_dcp as cli
 
 # 128 updates of 4 envs x 8 steps on a 4x4 grid; evaluations/checkpoints at updates 64 and 128.
 TINY = ["--net", "linear", "--grid-size", "4", "--total-reward", "6", "--energy", "4", "8", "--risk", "low",
@@ -136,7 +136,7 @@ def test_eqn_is_wired_to_nstep_q(tmp_path):
     assert run.metadata["algorithm"]["target_every"] == 256
 
 
-def test_learner_options_reach_the_config_and_faithful_metadata_is_unchanged(tmp_path):
+def test_learner_options_reach_the_config_and_the_metadata(tmp_path):
     argv = TINY + ["--out", str(tmp_path / "ppo"), "--clip-eps", "0.2", "--epochs", "2", "--minibatches", "4",
                    "--gae-lambda", "0.95", "--normalize-advantages", "--reset-slots", "2"]
     run = cli.Run(cli.build_parser().parse_args(argv))
@@ -145,7 +145,8 @@ def test_learner_options_reach_the_config_and_faithful_metadata_is_unchanged(tmp
         0.2, 2, 4, 0.95, True, 2)
     assert run.metadata["algorithm"]["clip_eps"] == 0.2
     plain = cli.Run(cli.build_parser().parse_args(TINY + ["--out", str(tmp_path / "plain")]))
-    assert not set(common.LEARNER_OPTIONS) & set(plain.metadata["algorithm"])  # as before the options existed
+    assert plain.metadata["format"] == 2
+    assert {k: plain.metadata["algorithm"][k] for k in common.LEARNER_OPTIONS} == common.LEARNER_OPTIONS
 
 
 def _tb_scalars(folder):

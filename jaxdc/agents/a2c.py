@@ -46,37 +46,30 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
+from jaxdc.agents.common import (Network, RunConfig, Trainer, Transition, check_network, heuristics_fn, huber,
+                                 lr_schedule, make_optimizer_from, nstep_returns)
 from jaxdc.core.env import step_batch
 from jaxdc.core.validate import check_positive_int
 
+__all__ = ["A2CConfig", "Batch", "TrainState", "Trainer", "Transition", "a2c_loss", "aux_cross_entropy", "huber",
+           "lr_schedule", "make_optimizer", "make_policy", "make_train", "nstep_returns"]
+
 
 @dataclasses.dataclass(frozen=True)
-class A2CConfig:
-    """Hyperparameters; defaults are those of section 4.5 unless noted.
+class A2CConfig(RunConfig):
+    """A2C's hyperparameters: :class:`~jaxdc.agents.common.RunConfig`'s shared settings (``total_steps``,
+    ``num_envs``, ``t_max``, ``gamma``, ``lr``, ``b1``, ``b2``, ``max_grad_norm``, ``reset_slots``, ``unroll``)
+    and the loss of section 4.4.3 with the options beside it; defaults are those of section 4.5 unless noted.
 
     Attributes:
-      total_steps: ``T_max``, environment steps over all environments (the
-        thesis' "1 million steps"); the learning rate reaches 0 there.
-      num_envs: parallel environments (the thesis' 16 threads).
-      t_max: rollout length per update (the thesis' maximum batch size 32).
-      gamma: discount factor (0.99).
-      lr: initial Adam learning rate (1e-4), annealed linearly to 0.
-      b1, b2: Adam's betas (0.9, 0.999).
       value_coef: weight of the Huber value loss (1.0: the thesis adds the two
         terms of its loss).
       entropy_coef: weight of the entropy bonus. Default 0.01, the value of
         A3C [25] from which Algorithm 10 is adopted; the thesis says its loss
         "mainly consists of two terms", and names no third. Set 0 for the two
         terms alone.
-      max_grad_norm: clip the global gradient norm (off by default; the thesis
-        names no clipping).
-      reset_slots: fresh initial states drawn per step for the environments that
-        finished (:func:`jaxdc.core.env.step_batch`); ``None`` draws one per
-        environment.
-      unroll: ``unroll`` of the rollout ``lax.scan`` (``t_max`` unrolls it fully;
-        on XLA:CPU a convolution inside a loop body can be much slower).
       aux_coef: weight of the auxiliary cross-entropy of a network with an
-        auxiliary head (one whose ``apply`` returns ``(logits, value,
+        auxiliary head (``has_aux``: its ``apply`` returns ``(logits, value,
         aux_logits)``): section 5.4.4's ``alpha`` of Eq. 5.1 for EMNN; 1.0 for
         OMN + CoNN, whose OMN is trained by that cross-entropy alone (Algorithm
         12). Ignored by a network without such a head.
@@ -96,18 +89,8 @@ class A2CConfig:
         one update does. Not in the thesis.
     """
 
-    total_steps: int = 1_000_000
-    num_envs: int = 16
-    t_max: int = 32
-    gamma: float = 0.99
-    lr: float = 1e-4
-    b1: float = 0.9
-    b2: float = 0.999
     value_coef: float = 1.0
     entropy_coef: float = 0.01
-    max_grad_norm: float | None = None
-    reset_slots: int | None = None
-    unroll: int = 1
     aux_coef: float = 1.0
     gae_lambda: float = 1.0
     clip_eps: float | None = None
@@ -117,44 +100,25 @@ class A2CConfig:
     aux_lr: float | None = None
 
     def __post_init__(self):
-        for name in ("total_steps", "num_envs", "t_max", "unroll", "epochs", "minibatches"):
+        super().__post_init__()
+        for name in ("epochs", "minibatches"):
             check_positive_int(name, getattr(self, name), numpy=False)
-        if not self.lr > 0:
-            raise ValueError(f"lr (learning rate) must be > 0, got {self.lr!r}")
         if self.aux_lr is not None and not self.aux_lr > 0:
             raise ValueError(f"aux_lr (learning rate of the auxiliary network) must be > 0 or None, got {self.aux_lr!r}")
-        if not 0 <= self.gamma <= 1:
-            raise ValueError(f"gamma must be in [0, 1], got {self.gamma!r}")
         for name in ("value_coef", "entropy_coef", "aux_coef"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
-        if self.max_grad_norm is not None and not self.max_grad_norm > 0:
-            raise ValueError(f"max_grad_norm must be > 0 or None, got {self.max_grad_norm!r}")
         if not 0 <= self.gae_lambda <= 1:
             raise ValueError(f"gae_lambda must be in [0, 1], got {self.gae_lambda!r}")
         if self.clip_eps is not None and not 0 < self.clip_eps < 1:
             raise ValueError(f"clip_eps must be in (0, 1) or None, got {self.clip_eps!r}")
         if self.batch_size % self.minibatches:
             raise ValueError(f"minibatches ({self.minibatches}) must divide num_envs * t_max ({self.batch_size})")
-        if self.total_steps < self.batch_size:
-            raise ValueError(
-                f"total_steps ({self.total_steps}) must be >= num_envs * t_max ({self.batch_size}), "
-                "the environment steps of one update")
-
-    @property
-    def batch_size(self) -> int:
-        """Environment steps per update: ``num_envs * t_max``."""
-        return self.num_envs * self.t_max
 
     @property
     def steps_per_update(self) -> int:
         """Adam steps per update: ``epochs * minibatches`` (1 for Algorithm 10)."""
         return self.epochs * self.minibatches
-
-    @property
-    def num_updates(self) -> int:
-        """Updates in the whole run: ``total_steps // batch_size``."""
-        return self.total_steps // self.batch_size
 
 
 @struct.dataclass
@@ -167,20 +131,6 @@ class TrainState:
     obs: jax.Array  # [num_envs, N, N, 2]
     key: jax.Array
     update: jax.Array  # int32, updates done so far
-
-
-class Transition(NamedTuple):
-    """One step of the batch; stacked by the rollout scan into ``[t_max, num_envs, ...]``."""
-
-    obs: jax.Array
-    heuristics: jax.Array
-    action: jax.Array
-    reward: jax.Array
-    terminated: jax.Array
-    truncated: jax.Array
-    final_value: jax.Array  # V(last obs of the finished episode) where truncated, else 0
-    episode_reward: jax.Array  # the finished episode's reward where done, else 0
-    aux_target: jax.Array  # int32 label of the auxiliary head (e.g. the opponent's action o_t), else 0
 
 
 class Batch(NamedTuple):
@@ -196,99 +146,20 @@ class Batch(NamedTuple):
 
 
 # -- the pieces of the loss ---------------------------------------------------------------
-def nstep_returns(rewards, terminated, truncated, final_values, last_value, gamma, values=None, lam: float = 1.0):
-    """The n-step returns of Algorithm 10 over a rollout of ``[T, B]`` steps (lambda-returns if ``lam < 1``).
-
-    Backwards from ``R_T = V(s_T)`` (``last_value``), ``R_t = r_t + gamma * X``
-    where ``X`` is 0 if step ``t`` reached a terminal state (Algorithm 10's
-    "0 if s_t is terminal"), ``V`` of the episode's last observation if it was
-    truncated by the step cap (``final_values``; the state is not terminal, so
-    its value bootstraps), and ``R_{t+1}`` otherwise. Hence
-    ``R_t = sum_{i<k} gamma^i r_{t+i} + gamma^k V(s_{t+k})`` (section 4.4.3).
-
-    With ``lam < 1`` (an option, not in the thesis) the continuing case is
-    ``X = (1 - lam) V(s_{t+1}) + lam R_{t+1}`` with ``values`` ``[T, B]`` =
-    ``V(s_t)``: the TD(lambda) return, whose difference from ``V(s_t)`` is
-    GAE's advantage (Schulman et al. 2016). ``lam = 1`` is the n-step return.
-    """
-    if lam == 1.0:
-        next_values = jnp.zeros_like(rewards)  # unused
-    else:
-        if values is None:
-            raise ValueError(f"lam={lam!r} < 1 needs values=V(s_t) [T, B]")
-        next_values = jnp.concatenate([values[1:], last_value[None]], axis=0)
-
-    def back(next_return, step):
-        r, term, trunc, v_final, v_next = step
-        cont = next_return if lam == 1.0 else (1.0 - lam) * v_next + lam * next_return
-        bootstrap = jnp.where(term, 0.0, jnp.where(trunc, v_final, cont))
-        ret = r + gamma * bootstrap
-        return ret, ret
-
-    _, returns = jax.lax.scan(back, last_value, (rewards, terminated, truncated, final_values, next_values),
-                              reverse=True)
-    return returns
-
-
-def huber(x, delta: float = 1.0):
-    """Huber loss of section 4.4.3: ``0.5 x^2`` if ``|x| <= delta``, else ``delta (|x| - 0.5 delta)``.
-
-    The same values as ``optax.huber_loss`` (for ``|x| < 2**24``), but not the same
-    gradient: optax writes it as ``0.5 min(|x|, delta)**2 + delta (|x| - min(|x|, delta))``,
-    whose backward pass differs in the last bit, so training with it ends on other
-    parameters than the runs that made the shipped networks. Kept for bit-identical training.
-    """
-    ax = jnp.abs(x)
-    return jnp.where(ax <= delta, 0.5 * x * x, delta * (ax - 0.5 * delta))
-
-
-def lr_schedule(config: A2CConfig, lr: float | None = None):
-    """Learning rate per update: ``lr`` (default ``config.lr``) linearly to 0 at update ``num_updates`` (at ``T_max``)."""
-    return optax.linear_schedule(config.lr if lr is None else lr, 0.0, config.num_updates)
-
-
-def _adam(config: A2CConfig, lr: float | None = None):
-    """Adam(b1, b2) on :func:`lr_schedule` of ``lr``, stepped per update whatever ``steps_per_update``."""
-    per_update, k = lr_schedule(config, lr), config.steps_per_update
-    return optax.adam(per_update if k == 1 else (lambda count: per_update(count // k)), b1=config.b1, b2=config.b2)
-
-
-def aux_param_labels(params, names) -> Any:
-    """``"aux"`` for every leaf under a top-level parameter name in ``names`` (e.g. ``("omn",)``), else ``"main"``."""
-    names = tuple(names)
-    inner = params["params"] if isinstance(params, dict) and "params" in params else params
-    missing = [n for n in names if n not in inner]
-    if missing:
-        raise ValueError(f"aux_params {names}: no parameters named {missing}; the network has {sorted(inner)}")
-    labels = {k: jax.tree_util.tree_map(lambda _, k=k: "aux" if k in names else "main", v) for k, v in inner.items()}
-    return {**params, "params": labels} if inner is not params else labels
-
-
 def make_optimizer(config: A2CConfig, aux_params=None):
-    """Adam(b1, b2) on :func:`lr_schedule` (per update, whatever ``steps_per_update``), optional norm clipping.
-
-    With ``config.aux_lr`` (an option, not in the thesis) the parameters under the top-level names
-    ``aux_params`` get their own Adam with initial learning rate ``aux_lr`` (``optax.multi_transform``);
-    Adam is element-wise, so with ``aux_lr == lr`` this is the single Adam exactly.
-    """
-    adam = _adam(config)
-    if config.aux_lr is not None:
-        if not aux_params:
-            raise ValueError("aux_lr needs a network with aux_params (the top-level parameter names of its "
-                             "auxiliary network, e.g. OMNCoNN's ('omn',))")
-        adam = optax.multi_transform({"main": adam, "aux": _adam(config, config.aux_lr)},
-                                     functools.partial(aux_param_labels, names=aux_params))
-    if config.max_grad_norm is None:
-        return adam
-    return optax.chain(optax.clip_by_global_norm(config.max_grad_norm), adam)
+    """A2C's optimizer: Adam(b1, b2) on :func:`lr_schedule`, stepped per update whatever ``steps_per_update``,
+    optional norm clipping, and with ``config.aux_lr`` a second Adam for the parameters under ``aux_params``
+    (:func:`jaxdc.agents.common.make_optimizer_from`)."""
+    return make_optimizer_from(config, config.steps_per_update, config.aux_lr, aux_params or ())
 
 
 def aux_cross_entropy(aux_logits, targets):
     """Eq. 5.1: mean cross-entropy ``-log p(o_t)`` of the auxiliary head, and its accuracy (argmax = target).
 
-    ``optax.softmax_cross_entropy_with_integer_labels`` (``logsumexp - logit``) gives the
-    same mean here but gradients that differ in the last bit, which changes training;
-    this ``log_softmax`` form is kept for bit-identical training.
+    Written out instead of ``optax.softmax_cross_entropy_with_integer_labels`` on purpose:
+    optax's ``logsumexp - logit`` gives the same mean here but gradients that differ in the
+    last bit, which would change every trained network; this ``log_softmax`` form keeps
+    training bit-identical to the runs that made the shipped networks.
     """
     logp = jax.nn.log_softmax(aux_logits)
     ce = -jnp.mean(jnp.take_along_axis(logp, targets[:, None], axis=-1)[:, 0])
@@ -333,27 +204,7 @@ def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, conf
 
 
 # -- policies -----------------------------------------------------------------------------
-def heuristics_fn(net, heuristics: Callable | None):
-    """``env_states [B] -> [B, H, A]``: the given heuristics for a network that uses them (ENN, EQN),
-    zeros ``[B, 1, A]`` for one that ignores them (linear, CNN).
-
-    The heuristics come from the caller (for the DCP,
-    :func:`jaxdc.dcp.navigators.batched_heuristics`): an algorithm knows no heuristics.
-    """
-    if getattr(net, "uses_heuristics", True):
-        if heuristics is None:
-            raise ValueError(f"{type(net).__name__} uses heuristics: pass heuristics=states -> [B, H, A] "
-                             "(for the DCP: jaxdc.dcp.navigators.batched_heuristics(params, table))")
-        return heuristics
-
-    def zeros(env_states):
-        b = jax.tree_util.tree_leaves(env_states)[0].shape[0]
-        return jnp.zeros((b, 1, net.num_actions), jnp.float32)
-
-    return zeros
-
-
-def make_policy(net, params, heuristics: Callable | None = None, greedy: bool = False):
+def make_policy(net: Network, params, heuristics: Callable | None = None, greedy: bool = False):
     """``policy(key, obs, state) -> action`` for one environment, as :func:`jaxdc.core.rollout.run_episodes` wants.
 
     Samples from ``pi`` (section 4.5: "the output of ENN is used as a
@@ -372,35 +223,25 @@ def make_policy(net, params, heuristics: Callable | None = None, greedy: bool = 
 
 
 # -- training -----------------------------------------------------------------------------
-class Trainer(NamedTuple):
-    """What :func:`make_train` returns (see the module docstring)."""
-
-    init: Callable  # key -> TrainState
-    update: Callable  # TrainState -> (TrainState, metrics); jitted
-    run: Callable  # (TrainState, n) -> (TrainState, metrics [n]); jitted, n static
-    train: Callable  # key -> (TrainState, metrics [num_updates])
-    config: A2CConfig
-
-
-def make_train(config: A2CConfig, env, env_params, net, heuristics: Callable | None = None,
+def make_train(config: A2CConfig, env, env_params, net: Network, heuristics: Callable | None = None,
                aux_target: Callable | None = None) -> Trainer:
     """Build the A2C trainer of ``net`` on ``env`` with ``env_params`` (validated outside jit).
 
     ``heuristics`` (``env_states [B] -> [B, H, A]``) feeds a network that uses them (ENN).
     ``aux_target`` (``info -> int labels [B]`` of the step that follows the observation, e.g.
     ``lambda info: info["opponent_action"]`` for the DCG) supervises a network's auxiliary head;
-    a network with such a head (``getattr(net, "has_aux", False)``) needs it.
+    a network with such a head (``net.has_aux``) needs it.
     """
     if not isinstance(config, A2CConfig):
         raise TypeError(f"config must be an A2CConfig, got {type(config).__name__}")
-    heuristics = heuristics_fn(net, heuristics)
-    if getattr(net, "has_aux", False) and aux_target is None:
+    heuristics = heuristics_fn(check_network(net), heuristics)
+    if net.has_aux and aux_target is None:
         raise ValueError(f"{type(net).__name__} has an auxiliary head: pass aux_target=info -> labels [B] "
                          "(for the DCG: lambda info: info['opponent_action'])")
-    if config.aux_lr is not None and not getattr(net, "aux_params", None):
+    if config.aux_lr is not None and not net.aux_params:
         raise ValueError(f"aux_lr={config.aux_lr!r}: {type(net).__name__} has no separate auxiliary network "
                          "(aux_params); only OMN + CoNN has one")
-    tx = make_optimizer(config, getattr(net, "aux_params", None))
+    tx = make_optimizer(config, net.aux_params)
     value_fn = functools.partial(net.apply, method="value")
     needs_old_policy = config.gae_lambda < 1 or config.clip_eps is not None or config.normalize_advantages
 

@@ -16,20 +16,22 @@ A2C, ``num_envs`` environments step in lock-step instead of threads:
 4. ``theta^- <- theta`` every ``target_every`` environment steps (40,000 in [25]).
 
 Learning rate, its linear annealing, Adam's betas, ``gamma`` and ``t_max`` are
-the same settings as A2C's (:class:`jaxdc.agents.a2c.A2CConfig`).
+the settings A2C has too (:class:`jaxdc.agents.common.RunConfig`, which both
+configs extend); :class:`QConfig` adds only exploration and the target network.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable, NamedTuple
+from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
 import optax
 from flax import struct
 
-from jaxdc.agents.a2c import A2CConfig, Trainer, Transition, heuristics_fn, huber, make_optimizer, nstep_returns
+from jaxdc.agents.common import (Network, RunConfig, Trainer, Transition, check_network, heuristics_fn, huber,
+                                 make_optimizer_from, nstep_returns)
 from jaxdc.core.env import tree_select
 from jaxdc.core.validate import is_int
 
@@ -38,8 +40,14 @@ EVAL_EPSILON = 0.05
 
 
 @dataclasses.dataclass(frozen=True)
-class QConfig(A2CConfig):
-    """:class:`A2CConfig`'s settings (``value_coef``, ``entropy_coef`` unused), exploration and target network."""
+class QConfig(RunConfig):
+    """The shared settings of :class:`~jaxdc.agents.common.RunConfig`, exploration and the target network.
+
+    Attributes:
+      eps_start, eps_end: epsilon of the behaviour policy at the start and after ``eps_fraction`` of the run.
+      eps_fraction: share of the run over which epsilon falls linearly.
+      target_every: environment steps between copies ``theta^- <- theta`` (40,000 in [25]).
+    """
 
     eps_start: float = 1.0
     eps_end: float = 0.05
@@ -69,6 +77,8 @@ class QConfig(A2CConfig):
 
 @struct.dataclass
 class QTrainState:
+    """Everything an n-step Q run depends on, with the target network's parameters."""
+
     params: Any
     target_params: Any
     opt_state: Any
@@ -76,8 +86,6 @@ class QTrainState:
     obs: jax.Array
     key: jax.Array
     update: jax.Array
-
-
 
 
 def epsilon_greedy(key, q, epsilon):
@@ -96,7 +104,7 @@ def q_loss(params, apply_fn: Callable, obs, heuristics, actions, returns):
     return loss, {"loss": loss, "q_mean": jnp.mean(q_a)}
 
 
-def make_q_policy(net, params, heuristics: Callable | None = None, epsilon: float = EVAL_EPSILON):
+def make_q_policy(net: Network, params, heuristics: Callable | None = None, epsilon: float = EVAL_EPSILON):
     """``policy(key, obs, state)`` for :func:`jaxdc.core.rollout.run_episodes`: epsilon-greedy on EQN's Q."""
     heuristics = heuristics_fn(net, heuristics)
 
@@ -107,12 +115,12 @@ def make_q_policy(net, params, heuristics: Callable | None = None, epsilon: floa
     return policy
 
 
-def make_train(config: QConfig, env, env_params, net, heuristics: Callable | None = None) -> Trainer:
+def make_train(config: QConfig, env, env_params, net: Network, heuristics: Callable | None = None) -> Trainer:
     """Build the n-step Q trainer of ``net`` (an :class:`jaxdc.nets.EQN`); same interface as A2C's."""
     if not isinstance(config, QConfig):
         raise TypeError(f"config must be a QConfig, got {type(config).__name__}")
-    heuristics = heuristics_fn(net, heuristics)
-    tx = make_optimizer(config)
+    heuristics = heuristics_fn(check_network(net), heuristics)
+    tx = make_optimizer_from(config)
     b = config.num_envs
 
     def init(key) -> QTrainState:

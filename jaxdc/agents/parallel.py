@@ -35,7 +35,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
-from jaxdc.agents.a2c import Trainer
+from jaxdc.agents.common import Trainer
 from jaxdc.core.validate import is_int
 
 #: The mesh axis the environment batch is split along.

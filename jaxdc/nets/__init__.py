@@ -4,7 +4,10 @@ Every actor-critic network maps ``(obs [B, N, N, 2], heuristics [B, 10, 9])``
 to ``(logits [B, 9], value [B])`` and has a ``value(obs)`` method; the class
 attribute ``uses_heuristics`` tells a trainer whether it must compute the
 heuristics at all. :class:`EQN` (Fig. 4.4) maps the same inputs to Q-values
-``[B, 9]`` and is not an actor-critic.
+``[B, 9]`` and is not an actor-critic. Every network declares the attributes
+a trainer reads, :class:`jaxdc.agents.common.Network`: ``num_actions``,
+``uses_heuristics``, ``has_aux`` and ``aux_params`` (class attributes, not
+flax fields).
 
 The DCG networks of section 5.4 (:data:`DCG_NETS`, :func:`make_dcg_net`) read
 DCG observations ``[B, N, N, 2 + k]`` and use no heuristics; EMNN and

@@ -16,6 +16,8 @@ class CNN(nn.Module):
 
     num_actions: int = 9
     uses_heuristics = False
+    has_aux = False
+    aux_params = ()
 
     def setup(self):
         self.body = ConvBody()

@@ -50,6 +50,8 @@ class ENN(nn.Module):
     num_heuristics: int = 10
     num_actions: int = 9
     uses_heuristics = True
+    has_aux = False
+    aux_params = ()
 
     def setup(self):
         self.body = ConvBody()

@@ -24,6 +24,8 @@ class EQN(nn.Module):
     num_heuristics: int = 10
     num_actions: int = 9
     uses_heuristics = True
+    has_aux = False
+    aux_params = ()
 
     @nn.compact
     def __call__(self, obs, heuristics):

@@ -17,6 +17,8 @@ class Linear(nn.Module):
 
     num_actions: int = 9
     uses_heuristics = False
+    has_aux = False
+    aux_params = ()
 
     def setup(self):
         self.policy_out = nn.Dense(self.num_actions)

@@ -1,0 +1,253 @@
+"""What the synchronous trainers share (sections 4.4.3, 4.5): settings, returns, loss, optimizer, networks' contract.
+
+A2C (:mod:`jaxdc.agents.a2c`, Algorithm 10) and n-step Q-learning
+(:mod:`jaxdc.agents.nstep_q`, section 4.5.5) step ``num_envs`` environments in
+lock-step for ``t_max`` steps, compute n-step returns backwards from the last
+state, and take Adam steps with the learning rate annealed linearly to 0 over
+``T_max`` (section 4.5). The pieces they both use live here:
+
+* :class:`RunConfig`: the settings both algorithms read (each config adds
+  only its own fields);
+* :class:`Transition`: one step of a rollout; :func:`nstep_returns`;
+  :func:`huber`;
+* :func:`lr_schedule` and :func:`make_adam`: the annealed Adam;
+* :class:`Network`: the attributes a trainer reads from a network;
+  :func:`heuristics_fn`, the heuristics hook;
+* :class:`Trainer`: what ``make_train`` returns.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from typing import Any, Callable, NamedTuple, Protocol, runtime_checkable
+
+import jax
+import jax.numpy as jnp
+import optax
+
+from jaxdc.core.validate import check_positive_int
+
+
+@runtime_checkable
+class Network(Protocol):
+    """What a trainer reads from a network (a flax module of :mod:`jaxdc.nets`) besides ``init``/``apply``.
+
+    Attributes:
+      num_actions: ``A``, the size of the policy (or Q) output.
+      uses_heuristics: whether ``apply(params, obs, heuristics)`` reads the heuristic action vectors of
+        section 4.4.3 (ENN, EQN); a trainer computes them only then.
+      has_aux: whether ``apply`` returns a third output, the auxiliary (opponent-action) logits of
+        Eq. 5.1 (EMNN, OMN + CoNN).
+      aux_params: the top-level parameter names of a separate auxiliary network (OMN's ``("omn",)``), which
+        may get their own learning rate; empty if there is none.
+    """
+
+    num_actions: int
+    uses_heuristics: bool
+    has_aux: bool
+    aux_params: tuple[str, ...]
+
+    def init(self, *args, **kwargs) -> Any: ...
+
+    def apply(self, *args, **kwargs) -> Any: ...
+
+
+def check_network(net) -> Network:
+    """``net`` if it declares the :class:`Network` attributes, else a ``TypeError`` naming the missing ones."""
+    missing = [a for a in ("num_actions", "uses_heuristics", "has_aux", "aux_params") if not hasattr(net, a)]
+    if missing:
+        raise TypeError(f"{type(net).__name__} is not a jaxdc network: it lacks {missing} "
+                        "(see jaxdc.agents.common.Network)")
+    return net
+
+
+@dataclasses.dataclass(frozen=True)
+class RunConfig:
+    """The settings every synchronous trainer reads; defaults are those of section 4.5.
+
+    Attributes:
+      total_steps: ``T_max``, environment steps over all environments (the
+        thesis' "1 million steps"); the learning rate reaches 0 there.
+      num_envs: parallel environments (the thesis' 16 threads).
+      t_max: rollout length per update (the thesis' maximum batch size 32).
+      gamma: discount factor (0.99).
+      lr: initial Adam learning rate (1e-4), annealed linearly to 0.
+      b1, b2: Adam's betas (0.9, 0.999).
+      max_grad_norm: clip the global gradient norm (off by default; the thesis
+        names no clipping).
+      reset_slots: fresh initial states drawn per step for the environments that
+        finished (:func:`jaxdc.core.env.step_batch`); ``None`` draws one per
+        environment.
+      unroll: ``unroll`` of the rollout ``lax.scan`` (``t_max`` unrolls it fully;
+        on XLA:CPU a convolution inside a loop body can be much slower).
+    """
+
+    total_steps: int = 1_000_000
+    num_envs: int = 16
+    t_max: int = 32
+    gamma: float = 0.99
+    lr: float = 1e-4
+    b1: float = 0.9
+    b2: float = 0.999
+    max_grad_norm: float | None = None
+    reset_slots: int | None = None
+    unroll: int = 1
+
+    def __post_init__(self):
+        for name in ("total_steps", "num_envs", "t_max", "unroll"):
+            check_positive_int(name, getattr(self, name), numpy=False)
+        if not self.lr > 0:
+            raise ValueError(f"lr (learning rate) must be > 0, got {self.lr!r}")
+        if not 0 <= self.gamma <= 1:
+            raise ValueError(f"gamma must be in [0, 1], got {self.gamma!r}")
+        if self.max_grad_norm is not None and not self.max_grad_norm > 0:
+            raise ValueError(f"max_grad_norm must be > 0 or None, got {self.max_grad_norm!r}")
+        if self.total_steps < self.batch_size:
+            raise ValueError(
+                f"total_steps ({self.total_steps}) must be >= num_envs * t_max ({self.batch_size}), "
+                "the environment steps of one update")
+
+    @property
+    def batch_size(self) -> int:
+        """Environment steps per update: ``num_envs * t_max``."""
+        return self.num_envs * self.t_max
+
+    @property
+    def num_updates(self) -> int:
+        """Updates in the whole run: ``total_steps // batch_size``."""
+        return self.total_steps // self.batch_size
+
+
+class Transition(NamedTuple):
+    """One step of the batch; stacked by the rollout scan into ``[t_max, num_envs, ...]``."""
+
+    obs: jax.Array
+    heuristics: jax.Array
+    action: jax.Array
+    reward: jax.Array
+    terminated: jax.Array
+    truncated: jax.Array
+    final_value: jax.Array  # V(last obs of the finished episode) where truncated, else 0
+    episode_reward: jax.Array  # the finished episode's reward where done, else 0
+    aux_target: jax.Array  # int32 label of the auxiliary head (e.g. the opponent's action o_t), else 0
+
+
+class Trainer(NamedTuple):
+    """What ``make_train`` of :mod:`jaxdc.agents.a2c` and :mod:`jaxdc.agents.nstep_q` returns."""
+
+    init: Callable  # key -> training state
+    update: Callable  # state -> (state, metrics); jitted
+    run: Callable  # (state, n) -> (state, metrics [n]); jitted, n static
+    train: Callable  # key -> (state, metrics [num_updates])
+    config: RunConfig
+
+
+def nstep_returns(rewards, terminated, truncated, final_values, last_value, gamma, values=None, lam: float = 1.0):
+    """The n-step returns of Algorithm 10 over a rollout of ``[T, B]`` steps (lambda-returns if ``lam < 1``).
+
+    Backwards from ``R_T = V(s_T)`` (``last_value``), ``R_t = r_t + gamma * X``
+    where ``X`` is 0 if step ``t`` reached a terminal state (Algorithm 10's
+    "0 if s_t is terminal"), ``V`` of the episode's last observation if it was
+    truncated by the step cap (``final_values``; the state is not terminal, so
+    its value bootstraps), and ``R_{t+1}`` otherwise. Hence
+    ``R_t = sum_{i<k} gamma^i r_{t+i} + gamma^k V(s_{t+k})`` (section 4.4.3).
+
+    With ``lam < 1`` (an option, not in the thesis) the continuing case is
+    ``X = (1 - lam) V(s_{t+1}) + lam R_{t+1}`` with ``values`` ``[T, B]`` =
+    ``V(s_t)``: the TD(lambda) return, whose difference from ``V(s_t)`` is
+    GAE's advantage (Schulman et al. 2016). ``lam = 1`` is the n-step return.
+    """
+    if lam == 1.0:
+        next_values = jnp.zeros_like(rewards)  # unused
+    else:
+        if values is None:
+            raise ValueError(f"lam={lam!r} < 1 needs values=V(s_t) [T, B]")
+        next_values = jnp.concatenate([values[1:], last_value[None]], axis=0)
+
+    def back(next_return, step):
+        r, term, trunc, v_final, v_next = step
+        cont = next_return if lam == 1.0 else (1.0 - lam) * v_next + lam * next_return
+        bootstrap = jnp.where(term, 0.0, jnp.where(trunc, v_final, cont))
+        ret = r + gamma * bootstrap
+        return ret, ret
+
+    _, returns = jax.lax.scan(back, last_value, (rewards, terminated, truncated, final_values, next_values),
+                              reverse=True)
+    return returns
+
+
+def huber(x, delta: float = 1.0):
+    """Huber loss of section 4.4.3: ``0.5 x^2`` if ``|x| <= delta``, else ``delta (|x| - 0.5 delta)``.
+
+    Written out instead of ``optax.huber_loss`` on purpose: both give the same
+    values (for ``|x| < 2**24``), but optax writes it as
+    ``0.5 min(|x|, delta)**2 + delta (|x| - min(|x|, delta))``, whose backward
+    pass differs in the last bit. Training with it would end on other
+    parameters than the runs that made the shipped networks, so this form keeps
+    training bit-identical to them.
+    """
+    ax = jnp.abs(x)
+    return jnp.where(ax <= delta, 0.5 * x * x, delta * (ax - 0.5 * delta))
+
+
+def lr_schedule(config: RunConfig, lr: float | None = None):
+    """Learning rate per update: ``lr`` (default ``config.lr``) linearly to 0 at update ``num_updates`` (at ``T_max``)."""
+    return optax.linear_schedule(config.lr if lr is None else lr, 0.0, config.num_updates)
+
+
+def make_adam(config: RunConfig, lr: float | None = None, steps_per_update: int = 1):
+    """Adam(b1, b2) on :func:`lr_schedule` of ``lr``, stepped per update whatever ``steps_per_update``."""
+    per_update, k = lr_schedule(config, lr), steps_per_update
+    return optax.adam(per_update if k == 1 else (lambda count: per_update(count // k)), b1=config.b1, b2=config.b2)
+
+
+def aux_param_labels(params, names) -> Any:
+    """``"aux"`` for every leaf under a top-level parameter name in ``names`` (e.g. ``("omn",)``), else ``"main"``."""
+    names = tuple(names)
+    inner = params["params"] if isinstance(params, dict) and "params" in params else params
+    missing = [n for n in names if n not in inner]
+    if missing:
+        raise ValueError(f"aux_params {names}: no parameters named {missing}; the network has {sorted(inner)}")
+    labels = {k: jax.tree_util.tree_map(lambda _, k=k: "aux" if k in names else "main", v) for k, v in inner.items()}
+    return {**params, "params": labels} if inner is not params else labels
+
+
+def make_optimizer_from(config: RunConfig, steps_per_update: int = 1, aux_lr: float | None = None,
+                        aux_params=()):
+    """:func:`make_adam` with optional global-norm clipping (``config.max_grad_norm``).
+
+    With ``aux_lr`` (an option, not in the thesis) the parameters under the top-level names
+    ``aux_params`` get their own Adam with initial learning rate ``aux_lr`` (``optax.multi_transform``);
+    Adam is element-wise, so with ``aux_lr == lr`` this is the single Adam exactly.
+    """
+    adam = make_adam(config, steps_per_update=steps_per_update)
+    if aux_lr is not None:
+        if not aux_params:
+            raise ValueError("aux_lr needs a network with aux_params (the top-level parameter names of its "
+                             "auxiliary network, e.g. OMNCoNN's ('omn',))")
+        adam = optax.multi_transform({"main": adam, "aux": make_adam(config, aux_lr, steps_per_update)},
+                                     functools.partial(aux_param_labels, names=aux_params))
+    if config.max_grad_norm is None:
+        return adam
+    return optax.chain(optax.clip_by_global_norm(config.max_grad_norm), adam)
+
+
+def heuristics_fn(net: Network, heuristics: Callable | None):
+    """``env_states [B] -> [B, H, A]``: the given heuristics for a network that uses them (ENN, EQN),
+    zeros ``[B, 1, A]`` for one that ignores them (linear, CNN).
+
+    The heuristics come from the caller (for the DCP,
+    :func:`jaxdc.dcp.navigators.batched_heuristics`): an algorithm knows no heuristics.
+    """
+    if check_network(net).uses_heuristics:
+        if heuristics is None:
+            raise ValueError(f"{type(net).__name__} uses heuristics: pass heuristics=states -> [B, H, A] "
+                             "(for the DCP: jaxdc.dcp.navigators.batched_heuristics(params, table))")
+        return heuristics
+
+    def zeros(env_states):
+        b = jax.tree_util.tree_leaves(env_states)[0].shape[0]
+        return jnp.zeros((b, 1, net.num_actions), jnp.float32)
+
+    return zeros

@@ -1,0 +1,109 @@
+"""Train a network on the DCP: synchronous A2C (sections 4.4.3, 4.5) or n-step Q-learning for EQN (4.5.5).
+
+    python -m train.dcp --net enn --risk high --steps 1000000 --seed 0
+
+writes into ``--out`` (default ``runs/dcp-NET-RISK-sSEED``):
+
+* ``config.json``: the run's settings;
+* ``metrics.csv``: one row per evaluation (training losses, the mean reward
+  of the training episodes, and the evaluation over ``--eval-episodes``
+  episodes of the stochastic policy);
+* ``checkpoints/``: orbax checkpoints of the whole training state at every
+  evaluation (the last ``--keep``).
+
+``--resume`` continues from the latest checkpoint and ends with the same
+parameters as an uninterrupted run. A NaN loss stops the run (exit status
+3) before it is checkpointed, so the last checkpoint stays good.
+
+The environment batch is split over all devices (``--devices N``: the first
+N; ``jaxdc.agents.parallel``). ``--seeds 0,1,2`` trains independent runs in
+one vmapped program: one checkpoint holds them all, and each seed gets its
+own ``metrics-sSEED.csv``. ``--tensorboard`` also writes the metrics as
+TensorBoard event files into ``tb/`` (needs the ``tb`` extra: tensorboardX).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+
+from jaxdc.agents.a2c import A2CConfig
+from jaxdc.agents.common import RunConfig
+from jaxdc.agents.nstep_q import EVAL_EPSILON, QConfig
+from jaxdc.cli.args import nonnegative_float, positive_float, positive_int
+from jaxdc.cli.train_common import (A2C_FLAGS, EXIT_NAN, a2c_settings, add_a2c_arguments, learner_options_set,
+                                    run_control, seed_tag)
+from jaxdc.core import grid
+from jaxdc.io import enable_compilation_cache
+from jaxdc.training.dcp import NETS, DCPRun, DCPSettings
+
+#: The flags' settings n-step Q-learning shares with A2C: those of ``RunConfig`` (no loss weights or learner options).
+Q_FIELDS = tuple(f for f in A2C_FLAGS if f in {field.name for field in dataclasses.fields(RunConfig)})
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m train.dcp", description=__doc__.split("\n")[0])
+    p.add_argument("--net", choices=NETS, default="enn",
+                   help="network to train (enn, linear, cnn: A2C; eqn: n-step Q-learning)")
+    p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default="high", help="risk preset (Table 4.2)")
+    p.add_argument("--grid-size", type=positive_int("--grid-size"), default=8)
+    p.add_argument("--total-reward", type=positive_int("--total-reward"), default=30)
+    p.add_argument("--min-total-reward", type=positive_int("--min-total-reward"), default=None,
+                   help="beyond the thesis: each training episode drops a number of units drawn uniformly from "
+                        "MIN..--total-reward (one network for Tables 4.3, 4.6 and 4.8; default: always --total-reward)")
+    p.add_argument("--energy", nargs=2, type=positive_float("--energy"), metavar=("INIT", "MAX"),
+                   default=(8.0, 16.0), help="initial and maximal energy (Tables 4.3-4.8: 8 16)")
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=1000, help="episode step cap")
+    add_a2c_arguments(p)  # --steps --seed(s) --envs --devices ... learner options ... --no-progress
+    p.add_argument("--target-every", type=positive_int("--target-every"), default=40_000,
+                   help="eqn: environment steps between target-network copies")
+    p.add_argument("--eval-epsilon", type=nonnegative_float("--eval-epsilon"), default=EVAL_EPSILON,
+                   help="eqn: epsilon of the evaluation policy (section 4.5.5: 0.05)")
+    p.add_argument("--out", default=None, help="run folder (default runs/dcp-NET-RISK-sSEED)")
+    p.add_argument("--tensorboard", action="store_true",
+                   help="also write the metrics as TensorBoard event files into OUT/tb (needs tensorboardX)")
+    return p
+
+
+def settle(args):
+    """``(DCPSettings, RunControl)`` of the parsed arguments; a ``ValueError`` names a bad combination."""
+    if args.energy[0] > args.energy[1]:
+        raise ValueError(f"--energy: initial energy {args.energy[0]} exceeds the maximum {args.energy[1]}")
+    if args.min_total_reward is not None and args.min_total_reward > args.total_reward:
+        raise ValueError(f"--min-total-reward ({args.min_total_reward}) exceeds --total-reward "
+                         f"({args.total_reward})")
+    if args.net == "eqn" and learner_options_set(args):
+        raise ValueError(f"{', '.join(learner_options_set(args))}: learner options of A2C; "
+                         "--net eqn trains with n-step Q-learning, which has none of them")
+    if args.net == "eqn":
+        config = QConfig(**a2c_settings(args, Q_FIELDS), target_every=args.target_every)
+    else:
+        config = A2CConfig(**a2c_settings(args))
+    settings = DCPSettings(net=args.net, config=config, risk=args.risk, grid_size=args.grid_size,
+                           total_reward=args.total_reward, min_total_reward=args.min_total_reward,
+                           energy=tuple(args.energy), max_steps=args.max_steps, eval_episodes=args.eval_episodes,
+                           greedy_eval=args.greedy_eval, eval_epsilon=args.eval_epsilon)
+    out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{seed_tag(args)}")
+    return settings, run_control(args, out)
+
+
+def Run(args) -> DCPRun:  # noqa: N802 - the name docs/learning.md uses
+    """The training run of the parsed arguments (``Run(args).trainer``, ``Run(args).train()``)."""
+    return DCPRun(*settle(args))
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    enable_compilation_cache()
+    try:
+        result = Run(args).train()
+    except ValueError as e:
+        parser.error(str(e))
+    if result["status"] == "nan":
+        return EXIT_NAN
+    for seed, r in result.get("per_seed", []):
+        print(f"done: seed {seed}, {r['env_steps']} steps, eval reward {r['eval_reward']:.3f} "
+              f"(energy {r['eval_energy']:.2f}, RPE {r['eval_rpe']:.3f})")
+    return 0

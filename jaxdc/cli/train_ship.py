@@ -1,0 +1,74 @@
+"""Regenerate the shipped parameters: the DCP's (``jaxdc/assets/dcp``, train with ``train.dcp``, then export)
+and the strong DCG collectors (``jaxdc/assets/dcg/*_strong*``, ``train.dcg --ship``).
+
+    python -m train.ship                      # all of them (6 runs of 1M steps, 2 at a time)
+    python -m train.ship --only enn eqn       # some of them
+    python -m train.ship --export-only        # re-export from finished run folders
+    python -m train.ship --only enn_single_item   # the single-item ENN (beyond the thesis, 4M steps)
+    python -m train.ship --only enn_long          # Table 4.3's ENN trained 16M steps (beyond the thesis)
+    python -m train.ship --only enn_mix           # one 1M-step ENN for Tables 4.3, 4.6, 4.8 (beyond the thesis)
+    python -m train.ship --only enn_ppo enn_ppo_low enn_ppo_energy16_32 enn_ppo_mix   # the PPO-style option, 1M steps
+    python -m train.ship --only vnn_strong omn_conn_strong    # strong DCG collectors (docs/dcg.md, 3M steps)
+
+Each shipped network is trained with the defaults of ``python -m train.dcp``
+(the thesis' hyper-parameters, section 4.5), seed 0, 1M steps, in the
+setting of the table it fills (section 4.5: the ENN of Table 4.3 also plays
+Tables 4.6 and 4.8; Tables 4.4, 4.5 and 4.7 have their own ENNs; the linear learner and EQN
+are trained in the setting of Table 4.3). The run folders are
+``--runs/<name>`` (a finished or interrupted run is resumed, so rerunning is
+cheap); the last checkpoint is exported with :func:`jaxdc.pretrained.save`,
+its metadata holding the network, the problem, every environment setting, the
+steps, the seed and the exact ``train.dcp`` command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+from jaxdc.cli.args import positive_int
+from jaxdc.pretrained import ASSETS
+from jaxdc.training.ship import DCG_STRONG, EVERY, SHIPPED, export, train_all, train_command
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m train.ship", description=__doc__.split("\n")[0])
+    p.add_argument("--only", nargs="+", choices=sorted(EVERY), default=None,
+                   help=f"names to regenerate (default: {', '.join(SHIPPED)})")
+    p.add_argument("--steps", type=positive_int("--steps"), default=1_000_000,
+                   help="environment steps per run (thesis: 1M; enn_single_item and enn_long have their own)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--runs", default=os.path.join("runs", "ship"), help="folder of the run folders")
+    p.add_argument("--out", default=os.path.join(ASSETS, "dcp"), help="where the parameter files go")
+    p.add_argument("--jobs", type=positive_int("--jobs"), default=2, help="trainings at a time")
+    p.add_argument("--export-only", action="store_true", help="do not train; export finished runs")
+    return p
+
+
+def main(argv=None) -> int:
+    p = build_parser()
+    args = p.parse_args(argv)
+    names = args.only or list(SHIPPED)
+    if args.export_only and any(n in DCG_STRONG for n in names):
+        p.error(f"--export-only: {', '.join(n for n in names if n in DCG_STRONG)} are written by train.dcg --ship; "
+                "train them (a finished run folder is resumed)")
+    commands = {n: train_command(n, args.steps, args.seed, args.runs) for n in names}
+    t0 = time.perf_counter()
+    if not args.export_only:
+        failed = train_all(names, commands, args.runs, args.jobs)
+        if failed:
+            print(f"error: training failed for {failed}; see {args.runs}/<name>.log", file=sys.stderr)
+            return 1
+    for n in names:
+        if n in DCG_STRONG:  # train.dcg --ship wrote it
+            continue
+        try:
+            path = export(n, os.path.join(args.runs, n), commands[n], args.out)
+        except ValueError as e:
+            print(f"error: {n}: {e}", file=sys.stderr)
+            return 1
+        print(f"exported {path}", file=sys.stderr)
+    print(f"done in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    return 0

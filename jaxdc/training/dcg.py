@@ -1,0 +1,167 @@
+"""A DCG training run: VNN, IMNN, EMNN, OMN + CoNN (section 5.4) with synchronous A2C (Algorithms 10-12).
+
+Losses: VNN and IMNN the A2C loss (section 5.4.2); EMNN adds ``alpha`` times
+the cross-entropy of Eq. 5.1 (Algorithm 11); OMN + CoNN adds OMN's
+cross-entropy with weight 1, which trains OMN alone (Algorithm 12;
+:mod:`jaxdc.nets.omn_conn`). :class:`DCGSettings` holds the problem's side of
+a run; :class:`DCGRun` builds the game, the trainer, the metadata and the
+evaluation (episode statistics and, for the networks with an opponent head,
+:func:`opponent_accuracy`), runs them with the loop of
+:class:`~jaxdc.training.loop.TrainingRun`, and :meth:`DCGRun.ship` writes the
+final parameters as a parameter file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+
+import jax
+import jax.numpy as jnp
+
+from jaxdc import pretrained
+from jaxdc.agents import a2c
+from jaxdc.core.env import step_batch
+from jaxdc.core.rollout import run_episodes
+from jaxdc.dcg.env import DCG
+from jaxdc.dcg.opponents import STANDARD_STRATEGIES
+from jaxdc.dcp.evaluate import summarize
+from jaxdc.nets import DCG_NETS, make_dcg_net
+from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, spread
+from jaxdc.training.metadata import FORMAT
+
+NETS = tuple(DCG_NETS)
+#: Networks with the opponent-action head (``has_aux``).
+AUX_NETS = ("emnn", "omn_conn")
+LOSS_METRICS = ("loss", "policy_loss", "value_loss", "entropy", "aux_loss", "aux_accuracy")
+CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", *LOSS_METRICS, "train_episodes",
+              "train_reward", "eval_reward", "eval_reward_sd", "eval_rpe", "eval_opponent_accuracy")
+#: Rollout of the opponent-accuracy evaluation: environments x steps.
+ACCURACY_ENVS, ACCURACY_STEPS = 64, 64
+
+
+@dataclasses.dataclass(frozen=True)
+class DCGSettings:
+    """The problem's side of a DCG run (defaults: section 5.5.1).
+
+    Attributes:
+      net: one of :data:`NETS`.
+      config: the ``A2CConfig`` (its ``aux_coef``: EMNN's ``alpha``, 1 for OMN + CoNN).
+      alpha: EMNN's weight of Eq. 5.1 as given (recorded in the metadata; ``None`` for the other networks).
+      energy, grid_size, total_reward, strategies, history, max_steps: the game (``total_reward=None``: the
+        game's default).
+      reward_area, min_reward_area: the one-item game of section 5.5.5 (beyond the thesis as a training game).
+      eval_episodes, greedy_eval: the evaluation.
+    """
+
+    net: str
+    config: a2c.A2CConfig
+    alpha: float | None = None
+    energy: float = 15.0
+    grid_size: int = 5
+    total_reward: int | None = None
+    strategies: tuple[str, ...] = tuple(STANDARD_STRATEGIES)
+    history: int = 10
+    max_steps: int = 100
+    reward_area: int | None = None
+    min_reward_area: int | None = None
+    eval_episodes: int = 500
+    greedy_eval: bool = False
+
+    @property
+    def has_aux(self) -> bool:
+        return self.net in AUX_NETS
+
+
+def opponent_accuracy(env, env_params, net, params, key, num_envs: int = ACCURACY_ENVS,
+                      steps: int = ACCURACY_STEPS):
+    """Share of steps on which the argmax of the opponent-action head equals ``o_t`` (section 5.5.3).
+
+    ``num_envs`` games played for ``steps`` steps with the stochastic policy (auto-reset); the
+    prediction at ``(s_t, h_t)`` is scored against the opponent's next action ``o_t``, the label
+    of Eq. 5.1.
+    """
+    k_reset, k_run = jax.random.split(key)
+    obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(k_reset, num_envs), env_params)
+
+    def step(carry, k):
+        obs, state = carry
+        k_act, k_env = jax.random.split(k)
+        logits, _, opp_logits = net.apply(params, obs)
+        action = jax.random.categorical(k_act, logits).astype(jnp.int32)
+        obs2, state2, *_, info = step_batch(env, k_env, state, action, env_params)
+        return (obs2, state2), jnp.mean(jnp.argmax(opp_logits, -1) == info["opponent_action"])
+
+    _, hits = jax.lax.scan(step, (obs, state), jax.random.split(k_run, steps))
+    return jnp.mean(hits)
+
+
+def make_env(s: DCGSettings) -> tuple[DCG, object]:
+    """The DCG of the run and its params; VNN's needs no history planes."""
+    history_net = s.net != "vnn"
+    env = DCG(grid_size=s.grid_size, total_reward=s.total_reward, strategies=",".join(s.strategies),
+              history=s.history if history_net else 1, obs_history=history_net, reward_area=s.reward_area,
+              min_reward_area=s.min_reward_area)
+    return env, env.make_params(energy=s.energy, max_steps=s.max_steps)
+
+
+def run_metadata(s: DCGSettings, env: DCG, seeds) -> dict:
+    """The run's metadata (``config.json``, checkpoints) in the current format."""
+    seeds = list(seeds)
+    return {
+        "format": FORMAT, "net": s.net, "problem": "dcg", "grid_size": s.grid_size,
+        "total_reward": env.total_reward, "strategies": list(env.strategies), "energy": s.energy,
+        "max_steps": s.max_steps, "history": s.history if s.net != "vnn" else 0,
+        "alpha": s.alpha if s.net == "emnn" else None,
+        "reward_area": s.reward_area, "min_reward_area": s.min_reward_area,
+        **({"seeds": seeds} if len(seeds) > 1 else {"seed": seeds[0]}),
+        "algorithm": dataclasses.asdict(s.config),
+    }
+
+
+class DCGRun(TrainingRun):
+    """A DCG training run: its network and game, and the loop of :class:`TrainingRun`."""
+
+    def __init__(self, settings: DCGSettings, control: RunControl):
+        s = self.settings = settings
+        self.net = make_dcg_net(s.net, s.history)  # validates net and k
+        self.env, self.env_params = make_env(s)  # validates grid, strategies, energy
+        if s.config.aux_lr is not None and s.net != "omn_conn":
+            raise ValueError(f"--omn-lr sets OMN's learning rate and applies to --net omn_conn only, not {s.net!r}")
+        aux = s.has_aux
+        trainer, mesh = spread(a2c.make_train(s.config, self.env, self.env_params, self.net,
+                                              aux_target=(lambda info: info["opponent_action"]) if aux else None),
+                               control, s.config.num_envs)
+
+        def evaluate(params, key):
+            k_ep, k_acc = jax.random.split(key)
+            policy = a2c.make_policy(self.net, params, greedy=s.greedy_eval)
+            finals = run_episodes(self.env, self.env_params, policy, k_ep, s.eval_episodes)
+            acc = opponent_accuracy(self.env, self.env_params, self.net, params, k_acc) if aux else jnp.nan
+            return finals, acc
+
+        self._evaluate = jax.jit(jax.vmap(evaluate) if control.multi else evaluate)
+        super().__init__(control, RunSpec(s.config, trainer, mesh, run_metadata(s, self.env, control.seeds),
+                                          self.evaluate, LOSS_METRICS, CSV_FIELDS))
+
+    def evaluate(self, params, key) -> list[dict]:
+        """Evaluation columns of each seed."""
+        finals, acc = jax.device_get(self._evaluate(params, key))
+        rows = []
+        for i in range(len(self.seeds)):
+            r = summarize(jax.tree_util.tree_map(lambda x: x[i], finals) if self.multi else finals)
+            row = {"eval_reward": r["reward"]["mean"], "eval_reward_sd": r["reward"]["sd"],
+                   "eval_rpe": r["rpe"]["mean"]}
+            if self.settings.has_aux:
+                row["eval_opponent_accuracy"] = float(acc[i] if self.multi else acc)
+            rows.append(row)
+        return rows
+
+    def ship(self, path: str, command: str) -> str:
+        """Write the final parameters and their metadata (:func:`jaxdc.pretrained.save`); ``path`` empty:
+        ``jaxdc/assets/dcg/NET.msgpack``."""
+        path = path or os.path.join(pretrained.ASSETS, "dcg", f"{self.settings.net}.msgpack")
+        meta = {k: v for k, v in self.metadata.items() if k not in ("format", "algorithm")}
+        meta.update(steps=self.config.total_steps, obs_history=self.env.obs_history, command=command,
+                    algorithm=dataclasses.asdict(self.config))
+        return pretrained.save(path, self.final_state.params, meta)

@@ -1,0 +1,121 @@
+"""A DCP training run: A2C (sections 4.4.3, 4.5) for the actor-critics, n-step Q-learning for EQN (4.5.5).
+
+:class:`DCPSettings` holds the problem's side of a run (network, environment
+setting, the algorithm's config, the evaluation); :class:`DCPRun` builds the
+environment, the heuristics of section 4.4.3, the trainer (spread over the
+devices and seeds of its :class:`~jaxdc.training.loop.RunControl`), the
+metadata and the evaluation, and runs them with the loop of
+:class:`~jaxdc.training.loop.TrainingRun`. Evaluation always drops
+``total_reward`` units (the setting of the tables), also when training draws
+the number from ``min_total_reward..total_reward``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+
+from jaxdc.agents import a2c, nstep_q
+from jaxdc.core.paths import safest_paths
+from jaxdc.core.rollout import run_episodes
+from jaxdc.dcp import env as dcp_env
+from jaxdc.dcp import navigators
+from jaxdc.dcp.evaluate import summarize
+from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
+from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, spread
+from jaxdc.training.metadata import FORMAT
+
+#: Networks: the actor-critics train with A2C, EQN with n-step Q-learning.
+NETS = tuple(sorted(ACTOR_CRITICS)) + ("eqn",)
+LOSS_METRICS = ("loss", "policy_loss", "value_loss", "entropy", "q_mean", "epsilon")
+CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", *LOSS_METRICS, "train_episodes",
+              "train_reward", "eval_reward", "eval_reward_sd", "eval_energy", "eval_rpe")
+
+
+@dataclasses.dataclass(frozen=True)
+class DCPSettings:
+    """The problem's side of a DCP run.
+
+    Attributes:
+      net: one of :data:`NETS`.
+      config: ``A2CConfig`` (actor-critics) or ``QConfig`` (EQN).
+      risk, grid_size, total_reward, energy, max_steps: the environment setting (Table 4.2, section 4.5).
+      min_total_reward: each training episode drops a number of units drawn from ``min..total_reward``
+        (beyond the thesis); ``None``: always ``total_reward``.
+      eval_episodes: episodes per evaluation.
+      greedy_eval: evaluate the argmax policy (EQN: epsilon 0).
+      eval_epsilon: EQN's evaluation epsilon (section 4.5.5: 0.05).
+    """
+
+    net: str
+    config: a2c.A2CConfig | nstep_q.QConfig
+    risk: str = "high"
+    grid_size: int = 8
+    total_reward: int = 30
+    min_total_reward: int | None = None
+    energy: tuple[float, float] = (8.0, 16.0)
+    max_steps: int = 1000
+    eval_episodes: int = 500
+    greedy_eval: bool = False
+    eval_epsilon: float = nstep_q.EVAL_EPSILON
+
+    def __post_init__(self):
+        if self.net not in NETS:
+            raise ValueError(f"net must be one of {NETS}, got {self.net!r}")
+        want = nstep_q.QConfig if self.net == "eqn" else a2c.A2CConfig
+        if not isinstance(self.config, want):
+            raise TypeError(f"net {self.net!r} trains with a {want.__name__}, got {type(self.config).__name__}")
+
+
+def run_metadata(s: DCPSettings, seeds) -> dict:
+    """The run's metadata (``config.json``, checkpoints) in the current format."""
+    seeds = list(seeds)
+    return {
+        "format": FORMAT, "net": s.net, "grid_size": s.grid_size, "total_reward": s.total_reward,
+        "risk": s.risk, "energy": list(s.energy), "max_steps": s.max_steps, "min_total_reward": s.min_total_reward,
+        **({"seeds": seeds} if len(seeds) > 1 else {"seed": seeds[0]}),
+        "algorithm": dataclasses.asdict(s.config),
+    }
+
+
+class DCPRun(TrainingRun):
+    """A DCP training run: its network, environment and heuristics, and the loop of :class:`TrainingRun`."""
+
+    def __init__(self, settings: DCPSettings, control: RunControl):
+        s = self.settings = settings
+        algo = nstep_q if s.net == "eqn" else a2c
+        self.net = EQN() if s.net == "eqn" else make_net(s.net)
+        self.env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward,
+                               min_total_reward=s.min_total_reward)
+        self.env_params = self.env.make_params(s.risk, tuple(s.energy), s.max_steps)
+        table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
+        self.heuristics = navigators.batched_heuristics(self.env_params, table)
+        trainer, mesh = spread(algo.make_train(s.config, self.env, self.env_params, self.net, self.heuristics),
+                               control, s.config.num_envs)
+        eval_env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward)
+
+        def episodes(params, key):
+            return run_episodes(eval_env, self.env_params, self.policy(params), key, s.eval_episodes)
+
+        self._episodes = jax.jit(jax.vmap(episodes) if control.multi else episodes)
+        super().__init__(control, RunSpec(s.config, trainer, mesh, run_metadata(s, control.seeds), self.evaluate,
+                                          LOSS_METRICS, CSV_FIELDS))
+
+    def policy(self, params):
+        """The evaluation policy: sampled from pi (argmax if ``greedy_eval``); EQN: epsilon-greedy."""
+        s = self.settings
+        if s.net == "eqn":
+            return nstep_q.make_q_policy(self.net, params, self.heuristics,
+                                         epsilon=0.0 if s.greedy_eval else s.eval_epsilon)
+        return a2c.make_policy(self.net, params, self.heuristics, greedy=s.greedy_eval)
+
+    def evaluate(self, params, key) -> list[dict]:
+        """Evaluation columns of each seed."""
+        results = jax.device_get(self._episodes(params, key))
+        rows = []
+        for i in range(len(self.seeds)):
+            r = summarize(jax.tree_util.tree_map(lambda x: x[i], results) if self.multi else results)
+            rows.append({"eval_reward": r["reward"]["mean"], "eval_reward_sd": r["reward"]["sd"],
+                         "eval_energy": r["energy"]["mean"], "eval_rpe": r["rpe"]["mean"]})
+        return rows

@@ -1,0 +1,285 @@
+"""The loop of a training run (sections 4.5, 5.5.2): evaluations, checkpoints, exact resume, NaN stop.
+
+:class:`TrainingRun` takes its pieces explicitly: a :class:`RunControl` (the
+folder, the seeds, the devices and how the loop is driven) and a
+:class:`RunSpec` (the trainer, its config, the metadata, the evaluation and
+the CSV columns), which :mod:`jaxdc.training.dcp` and :mod:`jaxdc.training.dcg`
+build. Every ``eval_every`` environment steps the loop writes one evaluation
+row per seed (``metrics.csv``, or ``metrics-sSEED.csv`` with several seeds;
+TensorBoard events on request) and an orbax checkpoint of the whole training
+state; ``resume`` continues from the latest checkpoint and ends exactly where an
+uninterrupted run does; a loss that is not finite stops the run (status
+``"nan"``) before it is checkpointed, so the last checkpoint stays good.
+
+Several seeds run in one vmapped program and the environment batch is split
+over the devices (:func:`spread`, :mod:`jaxdc.agents.parallel`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+import tempfile
+import time
+from typing import Any, Callable
+
+import jax
+import numpy as np
+
+from jaxdc import checkpoint
+from jaxdc.agents import parallel
+from jaxdc.agents.common import RunConfig, Trainer, lr_schedule
+from jaxdc.io import atomic_write_json
+from jaxdc.training import metadata as metadata_format
+from jaxdc.training.metrics import read_rows, tensorboard_writer, write_rows
+
+#: How updates are driven: one jitted update per Python iteration, or ``n`` updates in one ``lax.scan``.
+LAYOUTS = ("loop", "scan")
+#: Offset of the evaluation keys' seeds from the run's seeds.
+EVAL_SEED_OFFSET = 1_000_003
+
+
+@dataclasses.dataclass(frozen=True)
+class RunControl:
+    """How a run is driven, whatever it trains.
+
+    Attributes:
+      out: the run folder (``config.json``, metrics, ``checkpoints/``).
+      seeds: the runs' seeds; more than one trains them in one vmapped program.
+      devices: devices to split the environment batch over (``None``: all).
+      resume: continue from the latest checkpoint in ``out``.
+      eval_every: environment steps between evaluations and checkpoints.
+      keep: checkpoints to keep.
+      layout: one of :data:`LAYOUTS`.
+      progress: show a progress bar.
+      tensorboard: also write the metrics as TensorBoard event files into ``out/tb``.
+    """
+
+    out: str
+    seeds: tuple[int, ...] = (0,)
+    devices: int | None = None
+    resume: bool = False
+    eval_every: int = 100_000
+    keep: int = 3
+    layout: str = "loop"
+    progress: bool = True
+    tensorboard: bool = False
+
+    @property
+    def multi(self) -> bool:
+        """Several seeds in one vmapped program."""
+        return len(self.seeds) > 1
+
+    @property
+    def ckpt_dir(self) -> str:
+        return os.path.join(self.out, "checkpoints")
+
+
+@dataclasses.dataclass(frozen=True)
+class RunSpec:
+    """What a problem gives the loop.
+
+    Attributes:
+      config: the algorithm's config (``batch_size``, ``num_updates``).
+      trainer: the trainer, already spread by :func:`spread` (``init``, ``update``, ``run``).
+      mesh: the mesh :func:`spread` placed it on.
+      metadata: the run's metadata (``config.json``; checked on resume after :func:`jaxdc.training.metadata.upgrade`).
+      evaluate: ``(params, key) -> [columns]``, one dict of evaluation columns per seed (keys from
+        :meth:`TrainingRun.eval_key`).
+      loss_metrics: training metrics averaged into each row.
+      csv_fields: the columns of the metrics CSV.
+      postfix_key: the column shown beside the progress bar.
+    """
+
+    config: RunConfig
+    trainer: Trainer
+    mesh: Any
+    metadata: dict
+    evaluate: Callable[[Any, Any], list]
+    loss_metrics: tuple[str, ...]
+    csv_fields: tuple[str, ...]
+    postfix_key: str = "eval_reward"
+
+
+def spread(trainer: Trainer, control: RunControl, num_envs: int):
+    """``(trainer, mesh)``: ``trainer`` split over ``control.devices`` (default all) and vmapped over its seeds."""
+    available = len(jax.devices())
+    if control.devices is not None and control.devices > available:
+        raise ValueError(f"--devices {control.devices}: JAX sees only {available} device(s)")
+    devices = control.devices or available
+    if num_envs % devices:
+        raise ValueError(f"--envs ({num_envs}) must be divisible by the number of devices ({devices}); "
+                         "change --envs or pass --devices")
+    mesh = parallel.data_mesh(devices)
+    return parallel.parallelize(trainer, mesh, len(control.seeds) if control.multi else None), mesh
+
+
+def check_writable(folder: str) -> None:
+    """Create ``folder`` if needed; raise a ``ValueError`` naming it if it cannot be written."""
+    try:
+        os.makedirs(folder, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as e:
+        raise ValueError(f"output folder {folder!r} is not writable: {e}") from None
+
+
+class TrainingRun:
+    """One training run: :class:`RunControl` and :class:`RunSpec` in, :meth:`train` runs it.
+
+    Each seed gets its own CSV (and TensorBoard folder), one checkpoint holds all seeds.
+    """
+
+    def __init__(self, control: RunControl, spec: RunSpec):
+        if control.layout not in LAYOUTS:
+            raise ValueError(f"layout must be one of {LAYOUTS}, got {control.layout!r}")
+        if control.tensorboard:
+            tensorboard_writer(None)  # fail before any work if tensorboardX is missing
+        self.control, self.spec = control, spec
+        self.final_state = None
+
+    # the pieces, by name
+    @property
+    def config(self):
+        return self.spec.config
+
+    @property
+    def trainer(self) -> Trainer:
+        return self.spec.trainer
+
+    @property
+    def metadata(self) -> dict:
+        return self.spec.metadata
+
+    @property
+    def out(self) -> str:
+        return self.control.out
+
+    @property
+    def ckpt_dir(self) -> str:
+        return self.control.ckpt_dir
+
+    @property
+    def seeds(self) -> list[int]:
+        return list(self.control.seeds)
+
+    @property
+    def multi(self) -> bool:
+        return self.control.multi
+
+    def _keys(self, offset: int = 0):
+        keys = [jax.random.PRNGKey(s + offset) for s in self.control.seeds]
+        return jax.numpy.stack(keys) if self.multi else keys[0]
+
+    def init_key(self):
+        """The key of ``trainer.init`` (stacked per seed when several)."""
+        return self._keys()
+
+    def eval_key(self, update: int):
+        """The evaluation key at ``update`` (stacked per seed; each seed's equals its single run's)."""
+        base = self._keys(EVAL_SEED_OFFSET)
+        if self.multi:
+            return jax.vmap(jax.random.fold_in, in_axes=(0, None))(base, update)
+        return jax.random.fold_in(base, update)
+
+    def place(self, state):
+        """Put a restored state on the devices (as :func:`spread` placed the trainer's)."""
+        mesh = self.spec.mesh
+        return state if mesh is None else parallel.place(state, mesh, seed_axis=self.multi)
+
+    def paths(self) -> list[tuple[str, str]]:
+        """``(metrics CSV, TensorBoard folder)`` per seed."""
+        if not self.multi:
+            return [(os.path.join(self.out, "metrics.csv"), os.path.join(self.out, "tb"))]
+        return [(os.path.join(self.out, f"metrics-s{s}.csv"), os.path.join(self.out, "tb", f"s{s}"))
+                for s in self.seeds]
+
+    # -- state --------------------------------------------------------------------------
+    def initial_state(self):
+        """A fresh state (writes ``config.json``), or with ``resume`` the latest checkpoint's."""
+        check_writable(self.out)
+        state = self.trainer.init(self.init_key())
+        existing = checkpoint.steps(self.ckpt_dir)
+        if not self.control.resume:
+            if existing:
+                raise ValueError(f"{self.ckpt_dir} already holds checkpoints {existing}; "
+                                 "pass --resume to continue or choose another --out")
+            atomic_write_json(os.path.join(self.out, "config.json"), self.metadata)
+            return state
+        if not existing:
+            raise ValueError(f"--resume: no checkpoint found in {self.ckpt_dir}")
+        state, _ = checkpoint.restore(self.ckpt_dir, state, self.metadata, upgrade=metadata_format.upgrade)
+        return self.place(state)
+
+    # -- the loop -----------------------------------------------------------------------
+    def train(self) -> dict:
+        """Train to the end (or to a NaN loss); return the last metrics row (of the first seed) with ``"status"``
+        (and ``per_seed``: ``(seed, row)`` pairs).
+
+        The final training state is kept in ``self.final_state``.
+        """
+        from tqdm import tqdm
+
+        c, cfg, spec = self.control, self.config, self.spec
+        state = self.initial_state()
+        update = int(np.asarray(state.update).reshape(-1)[0])
+        paths = self.paths()
+        rows = [read_rows(csv_path, update) for csv_path, _ in paths]
+        writers = [tensorboard_writer(tb) for _, tb in paths] if c.tensorboard else []
+        every = max(1, c.eval_every // cfg.batch_size)
+        schedule = lr_schedule(cfg)
+        bar = tqdm(total=cfg.num_updates * cfg.batch_size, initial=update * cfg.batch_size, unit="step",
+                   unit_scale=True, disable=not c.progress, dynamic_ncols=True)
+        last = {"status": "done", "updates": update}
+        self.final_state = state
+        while update < cfg.num_updates:
+            n = min(every - update % every, cfg.num_updates - update)
+            t0 = time.perf_counter()
+            state, metrics = self._updates(state, n, bar)
+            metrics = jax.device_get(metrics)
+            wall = time.perf_counter() - t0
+            if not np.all(np.isfinite(metrics["loss"])):
+                bar.close()
+                print(f"error: the loss became NaN/inf between updates {update} and {update + n}; stopping. "
+                      f"The last good checkpoint is in {self.ckpt_dir}", file=sys.stderr)
+                return {"status": "nan", "updates": update}
+            update += n
+            evals = spec.evaluate(state.params, self.eval_key(update))
+            for i, (seed_rows, ev) in enumerate(zip(rows, evals)):
+                m = jax.tree_util.tree_map(lambda x: x[i], metrics) if self.multi else metrics
+                episodes = int(np.sum(m["episodes"]))
+                row = {"env_steps": update * cfg.batch_size, "updates": update, "wall_s": round(wall, 3),
+                       "steps_per_s": round(n * cfg.batch_size / wall, 1), "lr": float(schedule(update)),
+                       **{k: float(np.mean(m[k])) for k in spec.loss_metrics if k in m},
+                       "train_episodes": episodes,
+                       "train_reward": float(np.sum(m["episode_reward_sum"]) / max(episodes, 1)), **ev}
+                seed_rows.append(row)
+                if writers:
+                    for k, v in row.items():
+                        if k not in ("env_steps", "updates") and isinstance(v, (int, float)):
+                            writers[i].add_scalar(k, v, row["env_steps"])
+                    writers[i].flush()
+            checkpoint.save(self.ckpt_dir, update, state, self.metadata, keep=c.keep)
+            for (csv_path, _), seed_rows in zip(paths, rows):
+                write_rows(csv_path, seed_rows, spec.csv_fields)
+            last = dict(rows[0][-1], per_seed=[(seed, r[-1]) for seed, r in zip(self.seeds, rows)])
+            bar.set_postfix({spec.postfix_key: " ".join(f"{r[-1][spec.postfix_key]:.3f}" for r in rows)})
+            self.final_state = state
+        bar.close()
+        for w in writers:
+            w.close()
+        return dict(last, status="done")
+
+    def _updates(self, state, n: int, bar):
+        """``n`` updates; metrics ``[n]`` (``[seeds, n]`` with several seeds)."""
+        if self.control.layout == "scan":
+            state, metrics = self.trainer.run(state, n)
+            bar.update(n * self.config.batch_size)
+            return state, metrics
+        history = []
+        for _ in range(n):
+            state, m = self.trainer.update(state)
+            history.append(m)
+            bar.update(self.config.batch_size)
+        return state, jax.tree_util.tree_map(lambda *x: np.stack(x, axis=-1), *jax.device_get(history))
