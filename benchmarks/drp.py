@@ -13,14 +13,14 @@
    identical. ``--cc-rounds`` names the runs: ``cached``/``uncached`` (the
    append-builder tour cache on/off) and, for GI, ``resume``/``scratch`` (each
    union's tour resumed from the new cluster's GI trajectory, or rebuilt from
-   scratch: the code before the speed-up).
+   scratch).
 
     python -m benchmarks.drp --nc-cache [--cc-graphs 3 --cc-nodes 100 --cc-builders ng,tl --json]
     python -m benchmarks.drp --nc-cache --cc-builders gi --cc-rounds resume,scratch,resume,scratch
     python -m benchmarks.drp --gi-resume-stats [--nodes 100 --alpha 20]   # why resume does not pay
 
 4. ``--against REV`` (instead of 1-3): NC on ``--cc-graphs`` graphs x ``--cc-alphas``
-   with the ``jaxdc`` of git revision ``REV`` (extracted with ``git archive``)
+   with the ``jaxdc`` (and ``eval``) of git revision ``REV`` (extracted with ``git archive``)
    and with the working tree's, each in a fresh process (first call with
    compilation, then warm), one after the other per builder; checks the
    clusters are identical.
@@ -36,7 +36,7 @@
     python -m benchmarks.drp --build-against e10e983 --build-sizes 100x32,16x1024 [--json]
 
 6. ``--fig-against REV`` (instead of 1-5): the figure-3.1 experiment (all 12
-   combinations, ``eval.drp.run_experiment``) on ``--cc-graphs`` graphs of
+   combinations, ``jaxdc.drp.experiment.run_experiment``) on ``--cc-graphs`` graphs of
    ``--cc-nodes`` nodes x ``--cc-alphas``, with the ``jaxdc`` of ``REV`` and the
    working tree's, each in a fresh process run twice (first run with every
    compilation, then warm), one after the other; reports the total and
@@ -49,7 +49,7 @@
 
 The reference uses the same formulas (Eqs. 3.2-3.8), NumPy-vectorised over
 candidates within a step, Python loops over steps, NC re-evaluating only pairs
-with the new cluster, and the same PGC (``jaxdc.drp.clustering.pgc`` is
+with the new cluster, and the same PGC (``jaxdc.drp.pgc_clustering.pgc`` is
 already plain NumPy/Python).
 """
 
@@ -151,12 +151,12 @@ def np_nc(criterion, P, beta):
 
 
 def np_solve(builder, clustering, D, beta, psi, alpha):
-    from jaxdc.drp.clustering import pgc
+    from jaxdc.drp.pgc_clustering import pgc
 
     beta = np.asarray(beta, np.float64).copy()
     beta[0] = alpha
     P = float(psi) ** np.asarray(D, np.float64)
-    clusters = np_nc(builder, P, beta) if clustering == "nc" else pgc(D, beta, psi, alpha)[0]
+    clusters = np_nc(builder, P, beta) if clustering == "nc" else pgc(D, beta, psi, alpha).clusters
     rewards = [np_tour(builder, P, beta, c)[1] for c in clusters]
     return sum(r for r in rewards if r > 0)
 
@@ -164,7 +164,7 @@ def np_solve(builder, clustering, D, beta, psi, alpha):
 # ----------------------------------------------------------------------------- benchmark
 
 
-#: NC variants for :func:`nc_cache_compare`: keyword arguments of ``jaxdc.drp.clustering.nc``.
+#: NC variants for :func:`nc_cache_compare`: keyword arguments of ``jaxdc.drp.nc_clustering.nc``.
 NC_MODES = {"cached": {"cache": True}, "uncached": {"cache": False}, "resume": {"resume": True},
             "scratch": {"resume": False}}
 
@@ -177,9 +177,9 @@ def nc_cache_compare(graphs, nodes, alphas, builders, rounds=("cached", "uncache
     bad = [r for r in rounds if r not in NC_MODES]
     if bad:
         raise ValueError(f"--cc-rounds must name runs from {sorted(NC_MODES)}, got {bad}")
-    from eval.drp import graph_arrays
-    from jaxdc.drp import clustering as cl
     from jaxdc.drp import world
+    from jaxdc.drp.nc_clustering import nc
+    from jaxdc.drp.solve import graph_arrays
 
     gs = [world.generate(i, n=nodes) for i in range(graphs)]
     D, beta, psi = graph_arrays(gs)
@@ -190,7 +190,7 @@ def nc_cache_compare(graphs, nodes, alphas, builders, rounds=("cached", "uncache
         members, row = {}, {"builder": b, "graphs": graphs, "nodes": nodes, "alphas": len(alphas)}
         for k, mode in enumerate(rounds):
             t0 = time.perf_counter()
-            m = cl.nc(b, D, beta, psi, gidx, al, **NC_MODES[mode])
+            m = nc(b, D, beta, psi, gidx, al, **NC_MODES[mode])
             dt = time.perf_counter() - t0
             tag = mode + ("_warm" if mode in rounds[:k] else "_first")
             row[f"{tag}_s"] = dt
@@ -208,8 +208,7 @@ def _nc_child(builder, graphs, nodes, alphas, out):
     """Child of :func:`nc_against`: NC twice (first call, warm) with whichever ``jaxdc`` is first on ``sys.path``."""
     import jax.numpy as jnp
 
-    from jaxdc.drp import clustering as cl
-    from jaxdc.drp import world
+    from jaxdc.drp import nc, world  # the package's names, the same in every revision compared
 
     gs = [world.generate(i, n=nodes) for i in range(graphs)]
     D = jnp.stack([world.distances(g.base, g.nodes) for g in gs])
@@ -220,15 +219,15 @@ def _nc_child(builder, graphs, nodes, alphas, out):
     times = []
     for _ in range(2):
         t0 = time.perf_counter()
-        member = cl.nc(builder, D, beta, psi, gidx, al)
+        member = nc(builder, D, beta, psi, gidx, al)
         times.append(time.perf_counter() - t0)
     np.savez(out, member=member, first=times[0], warm=times[1])
 
 
 def _against(rev, child, tags):
-    """Run ``child(root, tag, out)`` -- a Python statement -- once with the ``jaxdc`` of git revision ``rev``
-    (``git archive`` into a temporary folder) and once with the working tree's, each in a fresh process;
-    yields ``(tag, npz contents)``."""
+    """Run ``child(root, tag, out)`` -- a Python statement -- once with the ``jaxdc`` and ``eval`` of git
+    revision ``rev`` (``git archive`` into a temporary folder) and once with the working tree's, each in a
+    fresh process; yields ``(tag, npz contents)``."""
     import os
     import subprocess
     import tempfile
@@ -236,7 +235,7 @@ def _against(rev, child, tags):
     with tempfile.TemporaryDirectory() as tmp:
         old = os.path.join(tmp, "old")
         os.makedirs(old)
-        archive = subprocess.run(["git", "archive", rev, "jaxdc"], check=True, capture_output=True).stdout
+        archive = subprocess.run(["git", "archive", rev, "jaxdc", "eval"], check=True, capture_output=True).stdout
         subprocess.run(["tar", "-x", "-C", old], input=archive, check=True)
         here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
         for tag in tags:
@@ -272,18 +271,26 @@ def _fig_child(graphs, nodes, alphas, out):
     ``jaxdc`` is first on ``sys.path``; rewards and times to ``out``."""
     import json
 
-    from eval.drp import run_experiment
-    from jaxdc.drp import clustering as cl
     from jaxdc.drp.tours import BUILDERS
 
-    plans, inner = [], cl.plan_tours
+    try:
+        from jaxdc.drp import experiment, plans as plans_mod, solve
+
+        run_experiment, inner, callers = experiment.run_experiment, plans_mod.plan_tours, (experiment, solve)
+    except ImportError:  # a revision that keeps the experiment in eval.drp and the plans in jaxdc.drp.clustering
+        from eval.drp import run_experiment
+        from jaxdc.drp import clustering
+
+        inner, callers = clustering.plan_tours, (clustering,)
+    plans = []
 
     def recorded(criterion, *args, **kwargs):  # every plan's tours, in call order (same in both versions)
         out = inner(criterion, *args, **kwargs)
         plans.append([criterion, [tours for _, tours in out]])
         return out
 
-    cl.plan_tours = recorded
+    for module in callers:
+        module.plan_tours = recorded
     res = {}
     for run in ("first", "warm"):
         plans.clear()
@@ -363,8 +370,8 @@ def figure_against(rev, graphs, nodes, alphas):
     raws = sorted(k for k in old if k.startswith("raw_"))
     row["identical_rewards"] = bool(raws == sorted(k for k in new if k.startswith("raw_")) and
                                     all(np.array_equal(old[k], new[k]) for k in raws))
-    # Float tolerance: since 2026-12-01 the rewards are float64 from the tours (before, XLA float32), so a
-    # revision before that differs in the last float32 bits even where every tour is the same.
+    # Float tolerance: a revision whose rewards are XLA float32 (rather than float64 from the tours) differs in
+    # the last float32 bits even where every tour is the same.
     rel = [float(np.max(np.abs(old[k] - new[k]) / np.maximum(np.abs(old[k]), 1.0))) for k in raws if k in new]
     row["max_rel_reward_difference"] = max(rel, default=0.0)
     row["identical_plans"] = bool("plans" in old and "plans" in new and str(old["plans"]) == str(new["plans"]))
@@ -378,10 +385,10 @@ def figure_against(rev, graphs, nodes, alphas):
 
 def gi_resume_stats(nodes=100, alpha=20.0, seed=0):
     """How much ``nc(..., resume=True)`` skips for GI on one graph: the share of resumed union builds that
-    restart at step 0 and the share of insertions skipped (counted at the ``evaluate_clusters`` calls)."""
-    from eval.drp import graph_arrays
-    from jaxdc.drp import clustering as cl
+    restart at step 0 and the share of insertions skipped (counted at NC's ``evaluate_clusters`` calls)."""
+    from jaxdc.drp import nc_clustering as cl
     from jaxdc.drp import world
+    from jaxdc.drp.solve import graph_arrays
 
     D, beta, psi = graph_arrays([world.generate(seed, n=nodes)])
     acc = {"jobs": 0, "restart_at_0": 0, "skipped": 0, "insertions": 0}
@@ -467,8 +474,9 @@ def main(argv=None):
         print(json.dumps(rows) if args.json else json.dumps(rows, indent=1))
         return
 
-    from eval.drp import graph_arrays, run_experiment, solve_instances
     from jaxdc.drp import world
+    from jaxdc.drp.experiment import run_experiment
+    from jaxdc.drp.solve import graph_arrays, solve_instances
     from jaxdc.drp.tours import BUILDERS
 
     g = world.generate(0, n=args.nodes, alpha=args.alpha)

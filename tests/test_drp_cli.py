@@ -1,4 +1,4 @@
-"""The eval.drp command line: plan output contract, errors, determinism, figure summaries."""
+"""The eval.drp command line (jaxdc.cli.eval_drp): plan output contract, errors, determinism, settings."""
 
 import json
 import os
@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from eval import drp as cli
+from jaxdc.cli import eval_drp as cli
 from jaxdc.drp import world
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -49,25 +49,6 @@ def test_plan_bad_file_names_the_field(tmp_path, capsys):
     assert "psi must be in (0, 1], got 2.0" in err.err and err.out == ""
 
 
-def test_summarise_normalises_by_alpha_zero():
-    raw = {("nc", "gi"): np.array([[10.0, 5.0], [30.0, 5.0]]), ("pgc", "gi"): np.array([[10.0, 2.0], [30.0, 3.0]])}
-    norm, rows = cli.summarise(raw, [0, 20])
-    assert norm == 20.0
-    r = {(x["clustering"], x["alpha"]): x for x in rows}
-    assert r[("nc", 20)]["mean"] == 0.25 and r[("nc", 0)]["sd"] == 0.5
-    assert r[("pgc", 20)]["pgc_over_nc"] == pytest.approx(0.5)
-    md = cli.markdown_tables(rows, [20], ["gi"]).splitlines()
-    assert md[0] == "| NC mean (SD) | α=20 |" and md[2] == "| GI | 0.250 (0.000) |"
-    assert "| GI | 0.125 (0.025) |" in md and md[-1] == "| GI | 0.50 |"
-
-
-def test_plot_writes_png(tmp_path):
-    rows = [{"clustering": c, "builder": "gi", "alpha": a, "mean": 1.0 - a / 100, "sd": 0.1, "pgc_over_nc": 0.9}
-            for c in ("nc", "pgc") for a in (0, 20)]
-    cli._plot(rows, [0, 20], ["gi"], "3.4", str(tmp_path / "f.png"))
-    assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
-
-
 def test_plan_draw_writes_the_tours(tmp_path, capsys):
     from matplotlib.image import imread
 
@@ -83,28 +64,31 @@ def test_plan_draw_writes_the_tours(tmp_path, capsys):
     assert "must name a .png file" in capsys.readouterr().err
 
 
-def test_builder_groups_cover_every_builder_once_and_balance():
-    from jaxdc.drp.tours import BUILDERS
+def test_eval_drp_is_a_shim_over_the_cli_module():
+    from eval import drp
 
-    for workers in (1, 2, 3, 6, 10):
-        groups = cli.builder_groups(list(BUILDERS), workers)
-        assert len(groups) == min(workers, len(BUILDERS))
-        assert sorted(b for g in groups for b in g) == sorted(BUILDERS)
-    two = cli.builder_groups(list(BUILDERS), 2)
-    loads = sorted(sum(cli.NC_COST[b] for b in g) for g in two)
-    assert loads[1] - loads[0] <= max(cli.NC_COST.values()) - min(cli.NC_COST.values())
-    assert ["gi"] in [g[:1] for g in two]  # the heaviest builder starts a group
+    assert drp.main is cli.main and drp.build_parser is cli.build_parser
 
 
-def test_figure_experiment_in_processes_equals_one_process():
-    # Two worker processes (builder groups, PGC clusters sent by the parent) give exactly the rewards of the
-    # in-process experiment: the rewards are computed from the tours on the host (float64), so neither the
-    # compiled programs of another process nor the batches the tours were built in can move them.
-    args = ("4-6", 2, 8, [0, 20, 40], "centre", 3)
-    want, _ = cli.run_experiment(*args, ["ng", "gi"], ("nc", "pgc"), quiet=True)
-    got, timing = cli.run_parallel(2, *args, False, True, builders=["ng", "gi"])
-    assert sorted(got) == sorted(want)
-    for key in want:
-        np.testing.assert_array_equal(got[key], want[key])
-    assert (want[("nc", "gi")][:, 1:] > 0).any()  # some robot is sent: the comparison is not vacuous
-    assert {"pgc_clustering", "nc_gi", "nc_ng", "pgc_gi", "pgc_ng"} <= set(timing)
+def test_arguments_settle_once_into_frozen_records(tmp_path):
+    import dataclasses
+
+    p = cli.build_parser()
+    s = cli.settle(p.parse_args(["--out", "o", "figure", "3.4", "--quick", "--alphas", "20,5,2.5,5", "--workers", "1"]))
+    assert isinstance(s, cli.FigureSettings)
+    assert (s.rewards, s.graphs, s.nodes, s.alphas, s.workers) == ("1-9", 10, 30, (0, 2.5, 5, 20), 1)
+    assert s.tag == "r1-9_g10_n30_centre_s0"
+    assert s.config == {"rewards": "1-9", "graphs": 10, "nodes": 30, "alphas": [0, 2.5, 5, 20], "base": "centre",
+                        "seed": 0}
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.graphs = 3
+    g = cli.settle(p.parse_args(["gaps", "--alphas", "0,7"]))
+    assert isinstance(g, cli.GapsSettings) and g.alphas == (0.0, 7.0) and g.out == cli.OUT_DIR
+    pl = cli.settle(p.parse_args(["plan", "--graph", "g.json"]))
+    assert pl == cli.PlanSettings(cli.OUT_DIR, "g.json", "gi", "pgc", False, None)
+
+
+def test_figure_graphs_must_be_positive(capsys):
+    with pytest.raises(SystemExit):
+        cli.main(["figure", "3.1", "--graphs", "0"])
+    assert "--graphs and --nodes must be >= 1" in capsys.readouterr().err

@@ -25,6 +25,7 @@ GI (Eq. 3.8) inserts anywhere in the cyclic partial tour (with
 from __future__ import annotations
 
 from functools import partial
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -145,6 +146,20 @@ def _gi_phases(n):
     return tuple(out)
 
 
+class _GIState(NamedTuple):
+    """The loop state of :func:`_gi_tour`: slots in insertion order (slot 0 is the base), columns compacted
+    to the candidate nodes of the phase."""
+
+    cols: jax.Array  # [W] the graph node of each column, in index order
+    cmask: jax.Array  # [W] bool: the column's node is still unassigned
+    order: jax.Array  # [K+1] order[j]: the slot at tour position j
+    pos: jax.Array  # [K+1] pos[s]: the tour position of slot s
+    node: jax.Array  # [K+1] node[s]: the node in slot s
+    rows: jax.Array  # [K+1, W] P[node[s], cols]
+    fac: jax.Array  # [K+1, W] 1 - P(a, u) P(u, b) / P(a, b) for the edge leaving slot s's node a
+    m: jax.Array  # the number of nodes in the partial tour
+
+
 def _gi_tour(P, beta, mask, cycle0=None, m0=0):
     """Greedy Insertion (GI, Eq. 3.8): the best node at the best position, cyclic tour. ``P = psi**D``.
 
@@ -154,7 +169,7 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
     (position, node) pair depends on the partial tour only, not on the other
     unassigned nodes, so a run over ``C`` agrees with a run over a subset of ``C``
     until the first insertion of a node outside it (used by
-    :func:`jaxdc.drp.clustering.nc` via :func:`gi_trajectory`).
+    :func:`jaxdc.drp.nc_clustering.nc` via :func:`gi_trajectory`).
 
     The scores are those of :func:`gi_scores`, computed with the same float32
     operations, but the ``[K+1, K+1]`` blocks are kept in *slot* order (the order
@@ -171,9 +186,8 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
     tie). ``pos`` (the tour position of each slot) is kept up to date rather than
     recomputed, the position of the chosen node is picked on its own column
     (recomputed with the same operations), and rows are replaced with selects,
-    not scatters (a vmapped ``.at[i].set`` is a scatter per step): same tours, 1.94x
-    faster at ``K = 100`` (``python -m benchmarks.drp --build-against e10e983``). Ties: lowest node,
-    then earliest tour position.
+    not scatters (a vmapped ``.at[i].set`` is a scatter per step). The loop state
+    is a :class:`_GIState`. Ties: lowest node, then earliest tour position.
     """
     n = P.shape[0] - 1
     mask = jnp.asarray(mask, bool).at[0].set(False)
@@ -187,15 +201,14 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
         return 1.0 - p_a * p_b / jnp.maximum(p_ab, tiny)
 
     def cond(limit):
-        def go(st):
-            cmask, m = st[1], st[-1]
-            return (m < limit) & cmask.any()
+        def go(st: _GIState):
+            return (st.m < limit) & st.cmask.any()
         return go
 
     def body(h):
         """One insertion, scoring only the first ``h`` slots (valid while ``m < h``)."""
 
-        def step(st):
+        def step(st: _GIState) -> _GIState:
             cols, cmask, order, pos, node, rows, fac, m = st
             # Tour-order vectors, exactly as in gi_scores: order[j] is the slot at tour position j.
             inside = k <= m
@@ -228,15 +241,14 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
             order = jnp.where(k <= i, order, jnp.where(k == i + 1, new, jnp.where(k <= new, jnp.roll(order, 1), k)))
             pos = jnp.where(k == new, i + 1, jnp.where(pos > i, pos + 1, pos))
             cmask = cmask & (jnp.arange(cmask.shape[0]) != c)
-            return cols, cmask, order.astype(jnp.int32), pos.astype(jnp.int32), node, rows, fac, new
+            return _GIState(cols, cmask, order.astype(jnp.int32), pos.astype(jnp.int32), node, rows, fac, new)
 
         return step
 
-    def compact(st, width):
+    def compact(st: _GIState, width) -> _GIState:
         """Keep ``width`` columns: the unassigned nodes first, in index order (a stable sort)."""
-        cols, cmask, order, pos, node, rows, fac, m = st
-        keep = jnp.argsort(~cmask, stable=True)[:width]
-        return cols[keep], cmask[keep], order, pos, node, rows[:, keep], fac[:, keep], m
+        keep = jnp.argsort(~st.cmask, stable=True)[:width]
+        return st._replace(cols=st.cols[keep], cmask=st.cmask[keep], rows=st.rows[:, keep], fac=st.fac[:, keep])
 
     # Initial slots: the partial tour cycle0 in tour order.
     rows0 = P[cycle0]
@@ -244,12 +256,23 @@ def _gi_tour(P, beta, mask, cycle0=None, m0=0):
     p_ub0 = jnp.where((k < m0)[:, None], jnp.roll(rows0, -1, axis=0), P[0][None, :])
     edge0 = jnp.where(k <= m0, P[cycle0, nxt0], 1.0)
     fac0 = factor(rows0, p_ub0, edge0[:, None])
-    st = (k.astype(jnp.int32), mask, k.astype(jnp.int32), k.astype(jnp.int32), cycle0, rows0, fac0, m0)
+    st = _GIState(cols=k.astype(jnp.int32), cmask=mask, order=k.astype(jnp.int32), pos=k.astype(jnp.int32),
+                  node=cycle0, rows=rows0, fac=fac0, m=m0)
     for end, h, width in _gi_phases(n):
         st = jax.lax.while_loop(cond(end), body(h), compact(st, width))
-    order, node, m = st[2], st[4], st[-1]
-    cycle = node[order]
-    return jnp.where(k[1:] <= m, cycle[1:], -1)
+    cycle = st.node[st.order]
+    return jnp.where(k[1:] <= st.m, cycle[1:], -1)
+
+
+class _TrajectoryState(NamedTuple):
+    """The loop state of :func:`gi_trajectory`."""
+
+    mask: jax.Array  # [n+1] bool: the cluster's nodes still to insert
+    cycle: jax.Array  # [K+1] the partial cyclic tour, base first, zero-padded
+    rows: jax.Array  # [K+1, n+1] P[cycle]
+    cycles: jax.Array  # [K+1, K+1] cycles[m]: the partial tour before step m
+    first: jax.Array  # [n+1] the first step at which each outside node cuts in (n+1 while none)
+    m: jax.Array  # the step
 
 
 def gi_trajectory(D, beta, psi, mask, K):
@@ -273,10 +296,10 @@ def gi_trajectory(D, beta, psi, mask, K):
     k = jnp.arange(K + 1)
     P = psi ** D
 
-    def cond(st):
-        return st[-1] < size
+    def cond(st: _TrajectoryState):
+        return st.m < size
 
-    def body(st):
+    def body(st: _TrajectoryState) -> _TrajectoryState:
         mask, cycle, rows, cycles, first, m = st
         cycles = cycles.at[m].set(cycle)
         score = gi_scores(P, beta, cycle, m, jnp.ones((n1,), bool), rows)  # every node, inside positions
@@ -288,14 +311,14 @@ def gi_trajectory(D, beta, psi, mask, K):
         cuts = outside & ((bv > s) | ((bv == s) & (nodes < u)))
         first = jnp.where(cuts & (first > m), m, first)
         cycle, rows = _gi_insert(cycle, rows, P, u, i, k)
-        return mask.at[u].set(False), cycle, rows, cycles, first, m + 1
+        return _TrajectoryState(mask.at[u].set(False), cycle, rows, cycles, first, m + 1)
 
     cycle0 = jnp.zeros((K + 1,), jnp.int32)
-    init = (mask, cycle0, P[cycle0], jnp.zeros((K + 1, K + 1), jnp.int32), jnp.full((n1,), n1, jnp.int32),
-            jnp.int32(0))
-    _, cycle, _, cycles, first, m = jax.lax.while_loop(cond, body, init)
-    cycles = cycles.at[jnp.minimum(m, K)].set(cycle)
-    return cycles, jnp.minimum(first, size)
+    init = _TrajectoryState(mask, cycle0, P[cycle0], jnp.zeros((K + 1, K + 1), jnp.int32),
+                            jnp.full((n1,), n1, jnp.int32), jnp.int32(0))
+    st = jax.lax.while_loop(cond, body, init)
+    cycles = st.cycles.at[jnp.minimum(st.m, K)].set(st.cycle)
+    return cycles, jnp.minimum(st.first, size)
 
 
 def build_order(criterion: str, P, beta, mask, resume=None):

@@ -66,7 +66,7 @@ def tour_parts(dist, beta_of, psi, tour, xp=jnp):
     ``dist(a, b)`` and ``beta_of(v)`` look up distances and node rewards for index
     arrays shaped like ``tour`` (or like ``tour[..., 0]``), so one code serves a
     single graph under ``jit`` (``xp = jax.numpy``) and a batch of tours of many
-    graphs on the host (``xp = numpy``, float64: :mod:`jaxdc.drp.clustering`).
+    graphs on the host (``xp = numpy``, float64: :mod:`jaxdc.drp.evaluate`).
     ``psi`` is a scalar or has the batch shape ``tour.shape[:-1]``. An empty tour
     (all ``-1``) has parts ``(0, 0)``.
     """

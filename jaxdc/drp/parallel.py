@@ -1,0 +1,99 @@
+"""The section 3.5 experiment split over processes, each taking a group of builders.
+
+Each worker process runs NC with its builders and the PGC plans with them, and
+compiles only their programs; the parent computes the PGC clusters (pure
+Python) meanwhile and sends them to every worker. The rewards are computed
+from the tours on the host (float64), so the results equal
+:func:`jaxdc.drp.experiment.run_experiment`'s in one process.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from jaxdc.drp.experiment import experiment_arrays, pgc_plans, progress_units, run_experiment
+from jaxdc.drp.solve import pgc_clusters
+from jaxdc.io import enable_compilation_cache
+
+#: Relative cost of NC with each builder (NC + GI = 1), from the per-part times of the full figure-3.1 run
+#: (100 graphs x 100 nodes, docs/drp.md); only used to balance the processes.
+NC_COST = {"gi": 1.0, "gml": 0.50, "osa": 0.34, "lpg": 0.24, "tl": 0.24, "ng": 0.17}
+
+
+def builder_groups(builders, workers):
+    """Split ``builders`` over at most ``workers`` processes, heaviest first onto the lightest process."""
+    groups = [[] for _ in range(min(workers, len(builders)))]
+    load = [0.0] * len(groups)
+    for b in sorted(builders, key=lambda b: -NC_COST.get(b, 1.0)):
+        i = load.index(min(load))
+        groups[i].append(b)
+        load[i] += NC_COST.get(b, 1.0)
+    return groups
+
+
+def _worker(task):
+    """One process: NC with its builders, then PGC plans with them on the clusters the parent sends.
+    Progress (NC rounds) goes to the parent through ``ticks``."""
+    cache, clusters_q, ticks, rewards, graphs, nodes, alphas, base, seed, builders, clusterings = task
+    if cache:
+        enable_compilation_cache()
+    raw, timing = {}, {}
+    if "nc" in clusterings:
+        raw, timing = run_experiment(rewards, graphs, nodes, alphas, base, seed, builders, ("nc",),
+                                     progress=ticks.put)
+    if "pgc" in clusterings:
+        D, beta, psi, gidx, al = experiment_arrays(rewards, graphs, nodes, alphas, base, seed)
+        pgc_plans(builders, D, beta, psi, gidx, al, clusters_q.get(), raw, timing)
+    return raw, timing
+
+
+def run_parallel(workers, rewards, graphs, nodes, alphas, base, seed, cache, quiet,
+                 builders=None, clusterings=("nc", "pgc")):
+    """:func:`jaxdc.drp.experiment.run_experiment` split over ``workers`` processes: each takes a group of
+    builders (:func:`builder_groups`) for NC and for the PGC plans. ``cache``: each worker turns on the
+    persistent XLA compilation cache. Same ``(raw, timing)`` as the one-process experiment
+    (tests/test_drp_experiment.py), ``raw`` sorted by key."""
+    import multiprocessing as mp
+    import queue as queue_mod
+    from concurrent.futures import ProcessPoolExecutor
+
+    from tqdm import tqdm
+
+    from jaxdc.drp.tours import BUILDERS
+
+    builders = list(builders or BUILDERS)
+    groups = builder_groups(builders, workers)
+    ctx = mp.get_context("spawn")
+    raw, timing = {}, {}
+    total = progress_units(builders, clusterings, nodes, graphs * len(alphas))
+    with ctx.Manager() as manager, ProcessPoolExecutor(len(groups), mp_context=ctx) as pool, \
+            tqdm(total=total, desc=f"DRP rewards {rewards} ({len(groups)} processes)", disable=quiet,
+                 file=sys.stderr) as bar:
+        clusters_q, ticks = manager.Queue(), manager.Queue()
+
+        def drain(block=False):
+            try:
+                while True:
+                    bar.update(ticks.get(timeout=0.5) if block else ticks.get_nowait())
+                    block = False
+            except queue_mod.Empty:
+                pass
+
+        futures = [pool.submit(_worker, (cache, clusters_q, ticks, rewards, graphs, nodes, alphas, base, seed, g,
+                                         clusterings)) for g in groups]
+        if "pgc" in clusterings:
+            D, beta, psi, gidx, al = experiment_arrays(rewards, graphs, nodes, alphas, base, seed)
+            t0 = time.perf_counter()
+            clusters = pgc_clusters(D, beta, psi, gidx, al, progress=lambda: (bar.update(1), drain()))
+            timing["pgc_clustering"] = time.perf_counter() - t0
+            for _ in groups:
+                clusters_q.put(clusters)
+        while not all(f.done() for f in futures):
+            drain(block=True)
+        drain()
+        for f in futures:
+            r, t = f.result()
+            raw.update(r)
+            timing.update(t)
+    return dict(sorted(raw.items())), timing
