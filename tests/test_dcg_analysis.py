@@ -119,3 +119,16 @@ def test_bar_charts_are_pngs_without_pyplot_state(tmp_path):
     assert save_strategy_chart(str(tmp_path / "s.png"), results[10.0], "t") == str(tmp_path / "s.png")
     assert save_strategy_chart(str(tmp_path / "none.png"), {}, "t") is None and not (tmp_path / "none.png").exists()
     assert plt.get_fignums() == before  # no pyplot figure leaked
+
+
+def test_the_report_of_a_reward_area_game_gives_each_strategy_its_own_bound():
+    r = dict(_bar(0.5), outcomes={"caught": 1}, bound={"total": 0.8, "per_strategy": {"patrol": 1.0,
+                                                                                       "restricted": 0.5}},
+             fraction_of_bound=0.625)
+    r["per_strategy"]["patrol"]["fraction_of_bound"] = 0.5
+    r["per_strategy"]["restricted"]["fraction_of_bound"] = 1.0
+    r["per_strategy"]["with_fog"]["fraction_of_bound"] = None
+    lines = report(r).splitlines()
+    assert lines[0].endswith("62.5% of the bound 0.8000")
+    assert lines[2].startswith("patrol") and lines[2].endswith("50.0% of the bound 1.0000")
+    assert lines[3].endswith("100.0% of the bound 0.5000") and "bound" not in lines[4]

@@ -40,23 +40,25 @@ def result_name(r: dict) -> str:
     return "_".join(parts) + ".json"
 
 
-def _line(r: dict) -> str:
+def _line(r: dict, bound: float | None) -> str:
     acc = r["opponent_accuracy"]
     text = (f"reward {r['reward']['mean']:.3f} ± {r['reward']['sd']:.3f}   RPE {r['rpe']['mean']:.4f} ± "
             f"{r['rpe']['sd']:.4f}   steps {r['steps']['mean']:.1f}")
     if acc is not None:
         text += f"   opponent accuracy {100 * acc:.1f}%"
     if r.get("fraction_of_bound") is not None:
-        text += f"   {100 * r['fraction_of_bound']:.1f}% of the bound {r['bound']['total']:.4f}"
+        text += f"   {100 * r['fraction_of_bound']:.1f}% of the bound {bound:.4f}"
     return text
 
 
 def report(r: dict) -> str:
-    """The text report of one evaluation: totals, outcomes and one line per strategy."""
-    lines = [f"all ({r['episodes']} games)".ljust(24) + _line(r),
+    """The text report of one evaluation: totals, outcomes and one line per strategy (each with its share of
+    its own exact bound in a reward-area game)."""
+    bound = r.get("bound") or {"total": None, "per_strategy": {}}
+    lines = [f"all ({r['episodes']} games)".ljust(24) + _line(r, bound["total"]),
              "outcomes: " + ", ".join(f"{k} {v}" for k, v in r["outcomes"].items())]
     for name, s in r["per_strategy"].items():
-        lines.append(f"{name} ({s['episodes']})".ljust(24) + _line(s))
+        lines.append(f"{name} ({s['episodes']})".ljust(24) + _line(s, bound["per_strategy"].get(name)))
     return "\n".join(lines)
 
 
