@@ -1,4 +1,5 @@
-"""Batched evaluation (jaxdc.dcp.evaluate), the Table 4.8 reproduction check, and the eval.dcp CLI."""
+"""Batched evaluation (jaxdc.dcp.evaluate), the evaluation setting and table results, the Table 4.8
+reproduction check, and the eval.dcp CLI (jaxdc.cli.eval_dcp)."""
 
 from __future__ import annotations
 
@@ -13,9 +14,15 @@ import jax
 import numpy as np
 import pytest
 
-from eval import dcp as cli
+from jaxdc.cli import eval_dcp as cli
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.evaluate import evaluate_heuristic, summarize
+from jaxdc.dcp.risk_map import load_risk_map
+from jaxdc.dcp.rows import Playing, evaluate_rows, table_policies
+from jaxdc.dcp.setting import EnvOptions, Setting, evaluation_setting, make_env
+from jaxdc.dcp.table_learner import check_learner
+from jaxdc.dcp.table_results import markdown_table, table_markdown_file, table_payload
+from jaxdc.dcp.tables import TABLES, incr_rows
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ENV = DCP(grid_size=5, total_reward=6, idle_terminates=True)
@@ -66,6 +73,117 @@ def test_table_4_8_safe_neither_reproduction():
     mean = reward.mean()
     se = math.sqrt(0.55 * 0.45 / m)
     assert abs(mean - 0.55) < 4 * se, f"Safe-Neither reward {mean:.4f}, thesis 0.55 (4 SE = {4 * se:.4f})"
+
+
+# ----------------------------------------------------------------------------------------------
+# The evaluation setting, the rows and the written results
+# ----------------------------------------------------------------------------------------------
+
+class _FakeLearned:
+    """Stands in for a jaxdc.dcp.learned.Learned: only what the setting and the results read."""
+
+    net_name = "enn"
+    source = "fake.msgpack"
+    metadata = {"steps": 5, "seed": 2, "command": "python -m train.dcp"}
+
+    def __init__(self, **setting):
+        self._setting = {"grid_size": 6, "total_reward": 12, "risk": "low", "energy": [4, 9], "max_steps": 50,
+                         **setting}
+
+    def setting(self):
+        return dict(self._setting)
+
+    def env_options(self):
+        return {"start": "base"}
+
+
+def test_evaluation_setting_precedence():
+    assert evaluation_setting() == Setting(8, 30, "high", (8.0, 16.0), 1000)
+    # given values beat the learned network's, which beat the defaults
+    got = evaluation_setting(None, _FakeLearned(), total_reward=7, max_steps=20)
+    assert got == Setting(6, 7, "low", (4.0, 9.0), 20)
+    # a table fixes risk, total reward and energy; given ones do not count
+    spec = TABLES["4.7"]
+    got = evaluation_setting(spec, None, risk="low", total_reward=3, energy=(1, 2), grid_size=5)
+    assert got == Setting(5, 30, "high", (16.0, 32.0), 1000)
+    assert isinstance(got.energy, tuple) and all(type(e) is float for e in got.energy)
+    with pytest.raises(ValueError, match="trained on a 6x6 grid; it cannot play a 8x8"):
+        evaluation_setting(None, _FakeLearned(), grid_size=8)
+
+
+def test_evaluation_setting_risk_map_gives_grid_size():
+    r = np.zeros((5, 5), np.float32)
+    got = evaluation_setting(risk_map=r)
+    assert got.grid_size == 5 and got.risk is r
+    assert evaluation_setting(risk_map=r, grid_size=4).grid_size == 4
+
+
+def test_env_options_and_make_env():
+    opts = EnvOptions(start="base", items_on_base=False, idle_terminates=True)
+    assert opts.kwargs()["idle_terminates"] and not opts.kwargs()["items_on_base"]
+    learned = opts.kwargs(_FakeLearned())
+    assert learned["idle_terminates"] is False and learned["start"] == "base"
+    env, params = make_env(Setting(5, 6, "high", (8.0, 16.0), 77), opts)
+    assert (env.grid_size, env.total_reward, env.start, env.items_on_base) == (5, 6, "base", False)
+    assert int(params.max_steps) == 77
+
+
+def test_load_risk_map_names_the_input(tmp_path):
+    r = np.full((4, 4), 0.1, np.float32)
+    r[0, 0] = 0
+    (tmp_path / "m.json").write_text(json.dumps(r.tolist()))
+    np.testing.assert_allclose(load_risk_map(str(tmp_path / "m.json")), r)
+    with pytest.raises(ValueError, match="^risk map: no such file"):
+        load_risk_map(str(tmp_path / "nope.npy"))
+    with pytest.raises(ValueError, match="^--risk-map: no such file"):
+        load_risk_map(str(tmp_path / "nope.npy"), "--risk-map")
+
+
+def test_rows_are_the_table_policies_played_alike():
+    spec = TABLES["4.8"]
+    assert table_policies(spec) == spec.heuristic_rows
+    assert table_policies(spec, _FakeLearned()) == spec.heuristic_rows + ("enn",)
+    setting, playing = Setting(5, 6, "high", (8.0, 16.0), 1000), Playing(episodes=32, seed=4)
+    seen = []
+    rows = evaluate_rows(("safe_neither", "safe_reward"), setting, EnvOptions(), playing,
+                         progress=lambda name, s: seen.append(name))
+    assert list(rows) == seen == ["safe_neither", "safe_reward"]
+    env, params = make_env(setting)
+    direct = summarize(evaluate_heuristic(env, params, "safe_neither", jax.random.PRNGKey(4), 32))
+    assert {k: v for k, v in rows["safe_neither"].items() if k != "seconds"} == direct
+    assert rows["safe_neither"]["seconds"] >= 0
+
+
+def test_check_learner_against_the_table_setting():
+    learned = _FakeLearned(risk="high", energy=[8, 16])
+    assert check_learner(TABLES["4.3"], learned) is learned
+    with pytest.raises(ValueError, match="Table 4.7 needs a enn trained with risk 'high' and energy 16/32; "
+                                         "this one was trained with risk 'high' and energy 8/16"):
+        check_learner(TABLES["4.7"], learned)
+
+
+def test_table_results_markdown_and_payload():
+    spec = TABLES["4.3"]
+    row = {"reward": {"mean": 10.0, "sd": 1.0}, "energy": {"mean": 20.0, "sd": 2.0},
+           "rpe": {"mean": 0.5, "sd": 0.1}, "episodes": 3, "outcomes": {"risk": 2, "energy": 0, "cleared": 1}}
+    rows = {**{nav: row for nav in spec.heuristic_rows}, "enn": dict(row, reward={"mean": 12.0, "sd": 1.0})}
+    incr = incr_rows(spec, rows, "enn")
+    assert incr["safe_reward"]["reward"][1] == pytest.approx(20.0)
+    assert incr["safe_reward"]["reward"][0] == pytest.approx(100 * (13.16 - 11.55) / 11.55)
+    assert incr_rows(spec, rows, None) == {} and incr_rows(spec, rows, "eqn") == {}
+    md = markdown_table(spec, rows, incr).splitlines()
+    assert md[2] == ("| safe_reward | 11.55 ± 6.38 | 10.00 ± 1.00 | 29.65 ± 19.75 | 20.00 ± 2.00 | 0.495 ± 0.301 "
+                     "| 0.500 ± 0.100 | risk 2, cleared 1 |")
+    assert md[8].startswith("| incr.% over |") and md[10].startswith("| safe_reward | 13.94 | 20.00 |")
+    assert markdown_table(None, {"lpg": row}).splitlines()[2].startswith("| lpg | — | 10.00 ± 1.00 | — |")
+    assert table_markdown_file(spec, "python -m eval.dcp --table 4.3", "T") == (
+        f"### Table 4.3: {spec.caption}\n\n`python -m eval.dcp --table 4.3`\n\nT\n")
+    payload = table_payload(spec, "cmd", rows, incr, _FakeLearned())
+    assert list(payload) == ["table", "caption", "command", "thesis", "ours", "incr", "learned"]
+    assert payload["thesis"]["enn"] == list(spec.rows["enn"])
+    assert payload["learned"] == {"net": "enn", "source": "fake.msgpack", "trained": _FakeLearned().setting(),
+                                  "steps": 5, "seed": 2, "command": "python -m train.dcp"}
+    assert table_payload(spec, "cmd", rows, {}, None)["learned"] is None
 
 
 # ----------------------------------------------------------------------------------------------
@@ -183,6 +301,26 @@ def test_cli_optimal_policy_matches_its_exact_value(capsys):
     p = out["expected_optimum"]
     se = math.sqrt(p * (1 - p) / 3000)
     assert abs(out["reward"]["mean"] - p) < 4 * se + 1e-9
+
+
+def test_cli_settles_the_arguments_once():
+    args = cli.build_parser().parse_args(["--policy", "safe_both", "--episodes", "7", "--seed", "3", "--no-idle-stop",
+                                          "--cf-distance", "manhattan", "--grid-size", "5", "--max-steps", "40"])
+    settings = cli.settle(args, None, None, ["--policy", "safe_both"])
+    assert settings.policies == ("safe_both",) and settings.table is None and settings.learned is None
+    assert settings.setting == Setting(5, 30, "high", (8.0, 16.0), 40)
+    assert settings.options == EnvOptions(idle_terminates=False)
+    assert (settings.playing.episodes, settings.playing.seed, settings.playing.planner.cf_distance) == (7, 3,
+                                                                                                        "manhattan")
+    assert settings.command == "python -m eval.dcp --policy safe_both"
+    with pytest.raises(AttributeError):
+        settings.out = "x"  # frozen
+
+
+def test_eval_dcp_shim_is_the_cli():
+    from eval import dcp as shim
+
+    assert shim.main is cli.main and shim.build_parser is cli.build_parser
 
 
 def test_cli_optimal_needs_single_item(capsys):

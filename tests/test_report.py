@@ -1,8 +1,14 @@
-"""eval.report: the results page from results JSON, and a clear error without results."""
+"""The results page (jaxdc.report) and its CLI (jaxdc.cli.eval_report): the page from results JSON, and a clear
+error without results."""
 
 import json
 
-from eval import report
+import pytest
+
+from jaxdc.cli import eval_report as report
+from jaxdc.report import build_page
+from jaxdc.report.copied import _relink
+from jaxdc.report.dcp_tables import dcp_table
 
 
 def test_report_builds_page_with_commands_and_se(tmp_path):
@@ -86,3 +92,33 @@ def test_the_notes_on_the_results_page_are_the_notes_file():
     docs = pathlib.Path(__file__).resolve().parents[1] / "docs"
     notes = (docs / "results_notes.md").read_text().strip()
     assert notes.startswith("## ") and notes in (docs / "results.md").read_text()
+
+
+def test_build_page_needs_a_dcp_table(tmp_path):
+    with pytest.raises(FileNotFoundError, match="python -m eval.dcp --table 4.3"):
+        build_page(str(tmp_path), None)
+
+
+def test_build_page_orders_tables_numerically_and_inserts_notes(tmp_path):
+    res = tmp_path / "results"
+    (res / "dcp").mkdir(parents=True)
+    for t in ("4.10", "4.3", "4.9"):
+        (res / "dcp" / f"table_{t}.json").write_text(json.dumps(
+            {"table": t, "caption": "c", "command": f"python -m eval.dcp --table {t}", "thesis": {}, "ours": {}}))
+    notes = tmp_path / "notes.md"
+    notes.write_text("## My notes\n")
+    page = build_page(str(res), str(notes), str(tmp_path))
+    assert page.index("Table 4.3:") < page.index("Table 4.9:") < page.index("Table 4.10:") < page.index("## My notes")
+    assert dcp_table(json.loads((res / "dcp" / "table_4.3.json").read_text())) in page
+
+
+def test_relink_keeps_urls_and_anchors(tmp_path):
+    text = "![a](../img/x.png) [b](http://h/p) [c](#top) [d](/abs)"
+    got = _relink(text, str(tmp_path / "results" / "dcg" / "f.md"), str(tmp_path / "results"))
+    assert got == "![a](img/x.png) [b](http://h/p) [c](#top) [d](/abs)"
+
+
+def test_eval_report_shim_is_the_cli():
+    from eval import report as shim
+
+    assert shim.main is report.main and shim.build_parser is report.build_parser

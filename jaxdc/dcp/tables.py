@@ -3,7 +3,8 @@
 Each :class:`TableSpec` holds the environment setting of one table and the
 thesis' rows, ``{policy: (reward avg, reward sd, energy avg, energy sd, rpe avg, rpe sd)}``
 (Table 4.1 reports reward only; missing values are ``None``).
-:func:`incr_percent` is the tables' "Incr.%" column.
+:func:`incr_percent` is the tables' "Incr.%" column and :func:`incr_rows` that
+column for every navigator of a table, thesis beside ours.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ class TableSpec:
     total_reward: int
     energy: tuple[float, float]
     rows: dict  # policy -> (r, r_sd, e, e_sd, rpe, rpe_sd)
-    learned: tuple[str, ...] = ()  # rows that need a trained network (the learning issue)
+    learned: tuple[str, ...] = ()  # rows that need a trained network
 
     @property
     def heuristic_rows(self) -> tuple[str, ...]:
@@ -40,6 +41,27 @@ def incr_percent(learner: float | None, other: float | None) -> float | None:
     if learner is None or other is None or other == 0 or math.isnan(learner) or math.isnan(other):
         return None
     return 100.0 * (learner - other) / other
+
+
+#: The columns of Tables 4.3-4.10 as (summary key, index of the mean in a thesis row).
+COLUMNS = (("reward", 0), ("energy", 2), ("rpe", 4))
+
+
+def incr_rows(spec: TableSpec, rows: dict, learner: str | None) -> dict:
+    """``{navigator: {column: [thesis incr.%, ours incr.%]}}``: ``learner``'s increment over each navigator.
+
+    ``rows`` maps policy names to summaries (:func:`jaxdc.dcp.evaluate.summarize`);
+    empty when the learner has no row.
+    """
+    if learner is None or learner not in rows:
+        return {}
+    out = {}
+    for name in spec.heuristic_rows:
+        th_l, th_n = spec.rows.get(learner), spec.rows.get(name)
+        out[name] = {col: [incr_percent(th_l[i], th_n[i]) if th_l and th_n else None,
+                           incr_percent(rows[learner][col]["mean"], rows[name][col]["mean"])]
+                     for col, i in COLUMNS}
+    return out
 
 
 _NAV = ("safe_reward", "safe_recharge", "safe_both", "safe_neither")

@@ -1,0 +1,237 @@
+"""Batched evaluation of DCP policies; reproduces the thesis' Tables 4.1 and 4.3-4.10 (navigators and learners).
+
+Examples::
+
+    python -m eval.dcp --policy safe_reward --risk high --total-reward 30 --energy 8 16 --episodes 10000 --seed 0
+    python -m eval.dcp --policy enn --risk high --episodes 10000 --json   # the shipped ENN (Table 4.3 setting)
+    python -m eval.dcp --policy eqn --checkpoint runs/dcp-eqn-high-s0     # a train.dcp run folder
+    python -m eval.dcp --table 4.3                 # the whole table with the learned row, thesis beside ours
+    python -m eval.dcp --table 4.7 --checkpoint my_enn.msgpack            # the learned row from an exported file
+    python -m eval.dcp --table 4.1 --json          # one JSON object keyed by policy name
+    python -m eval.dcp --policy safe_both --risk-map my_map.npy --energy 10 20
+
+A learned policy (``--policy enn|linear|cnn|eqn``) is the shipped parameter
+file trained in the requested risk/energy setting (``jaxdc/assets/dcp``), or
+``--checkpoint PATH`` (a ``train.dcp`` run folder or a ``.msgpack`` file).
+Its environment settings come from the file's metadata unless given; it is
+played in the environment it was trained in (no idle stop, as in
+``train.dcp``). Actor-critics sample from their policy (section 4.5; ``--greedy``
+for the argmax), EQN is epsilon-greedy with ``--epsilon`` 0.05 (section 4.5.5).
+
+``--table`` fills the learned row of Tables 4.3-4.10 (ENN; the linear learner
+in 4.9, EQN in 4.10) and the incr.% columns: the learner's increment over each
+navigator as a percentage of the navigator's mean. As in the thesis, the ENN of
+Table 4.3 also plays Tables 4.6 and 4.8; Table 4.7 has its own ENN (energy 16/32).
+Results of ``--table`` are written atomically to ``--out`` (default
+``results/dcp``) as ``table_<T>.json`` and ``table_<T>.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import sys
+
+from jaxdc.cli.args import positive_float, positive_int, unit_interval
+from jaxdc.core import grid
+from jaxdc.core.paths import PATH_RISK
+from jaxdc.dcp import env as dcp_env
+from jaxdc.dcp import learned as learned_lib
+from jaxdc.dcp.learned import EQN_EPSILON, NETS, Learned
+from jaxdc.dcp.navigators import POLICIES
+from jaxdc.dcp.planners import CF_DISTANCES, PlannerConfig
+from jaxdc.dcp.risk_map import load_risk_map
+from jaxdc.dcp.rows import Playing, evaluate_rows, table_policies
+from jaxdc.dcp.setting import DEFAULT_SETTING, EnvOptions, Setting, evaluation_setting
+from jaxdc.dcp.table_learner import check_learner, shipped_learner
+from jaxdc.dcp.table_results import markdown_table, table_markdown_file, table_payload
+from jaxdc.dcp.tables import TABLES, TableSpec, incr_rows
+from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m eval.dcp", description=__doc__.split("\n\n")[0])
+    what = p.add_mutually_exclusive_group()
+    what.add_argument("--policy", choices=POLICIES + ("optimal",) + NETS, default="safe_reward",
+                      help="heuristic policy to evaluate; 'optimal' = exact value iteration (needs --total-reward 1); "
+                           "enn/linear/cnn/eqn = a learned network (shipped, or --checkpoint)")
+    what.add_argument("--table", choices=sorted(TABLES, key=lambda t: float(t)), help="reproduce a thesis table")
+    p.add_argument("--checkpoint", metavar="PATH",
+                   help="learned parameters: a train.dcp run folder or a .msgpack file (jaxdc.pretrained); "
+                        "with --table, the table's learned row")
+    p.add_argument("--run-seed", type=int, default=None, metavar="S",
+                   help="--checkpoint of a train.dcp --seeds run: the seed whose network to evaluate")
+    p.add_argument("--greedy", action="store_true",
+                   help="learned policy: argmax instead of sampling (EQN: epsilon 0)")
+    p.add_argument("--epsilon", type=unit_interval("--epsilon"), default=EQN_EPSILON,
+                   help="EQN's evaluation epsilon (section 4.5.5: 0.05)")
+    p.add_argument("--no-learned", action="store_true", help="--table: navigator rows only")
+    p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default=None,
+                   help="risk preset (Table 4.2; default high, or the learned network's)")
+    p.add_argument("--risk-map", metavar="FILE", help="N x N risk map (.npy or JSON); overrides --risk")
+    p.add_argument("--grid-size", type=positive_int("--grid-size"), default=None,
+                   help="N (default 8, the map's, or the learned network's)")
+    p.add_argument("--total-reward", type=positive_int("--total-reward"), default=None,
+                   help="default 30, or the learned network's")
+    p.add_argument("--energy", nargs=2, type=positive_float("--energy", allow_inf=True), metavar=("INIT", "MAX"),
+                   default=None,
+                   help="initial and maximum energy; 'inf inf' for no constraint (default 8 16, or the learned "
+                        "network's)")
+    p.add_argument("--episodes", type=positive_int("--episodes"), default=10_000)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None,
+                   help="step cap (truncation; default 1000, or the learned network's)")
+    # the thesis' ambiguities (docs/ambiguities.md)
+    p.add_argument("--start", choices=dcp_env.STARTS, default="random_free")
+    p.add_argument("--item-order", choices=dcp_env.ITEM_ORDERS, default="drop")
+    p.add_argument("--energy-metric", choices=dcp_env.ENERGY_METRICS, default="not_stay_in_base")
+    p.add_argument("--no-items-on-base", action="store_true", help="never drop items on the base cell")
+    p.add_argument("--no-idle-stop", action="store_true",
+                   help="do not end an episode whose step left the state unchanged (then only --max-steps ends it)")
+    p.add_argument("--path-risk", choices=PATH_RISK, default="departed")
+    p.add_argument("--cf-distance", choices=CF_DISTANCES, default="chebyshev")
+    p.add_argument("--shortest-move", choices=grid.SHORTEST_MOVE_RULES, default="diagonal")
+    p.add_argument("--lpg-init", type=float, default=0.0)
+    p.add_argument("--rpe-zero", choices=("exclude", "zero"), default="exclude")
+    p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
+    p.add_argument("--out", default=os.path.join("results", "dcp"), help="folder for --table results")
+    return p
+
+
+@dataclasses.dataclass(frozen=True)
+class EvalDCPSettings:
+    """What one ``python -m eval.dcp`` run evaluates and where its results go, settled from the arguments."""
+
+    table: TableSpec | None  # --table, else None (one --policy)
+    policies: tuple[str, ...]  # the rows, in order
+    learned: Learned | None  # the learned network of a learned row or --policy
+    setting: Setting
+    options: EnvOptions
+    playing: Playing
+    json: bool
+    out: str
+    command: str  # the command line, as the results files record it
+
+
+def resolve_learned(args, spec: TableSpec | None = None) -> Learned | None:
+    """The learned network to evaluate (``None`` if none): ``--checkpoint``, or the shipped one of the setting.
+
+    For ``--table`` it is the table's learner (:mod:`jaxdc.dcp.table_learner`);
+    a shipped file that is missing leaves the row out (``None``) and says so on
+    stderr.
+    """
+    if args.run_seed is not None and not args.checkpoint:
+        raise ValueError(f"--run-seed {args.run_seed} needs --checkpoint (a train.dcp --seeds run folder)")
+    if spec is None:
+        if args.policy not in NETS:
+            if args.checkpoint:
+                raise ValueError(f"--checkpoint needs --policy one of {NETS} or --table, "
+                                 f"got --policy {args.policy}")
+            return None
+        if args.checkpoint:
+            return learned_lib.load(args.checkpoint, net=args.policy, grid_size=args.grid_size,
+                                    run_seed=args.run_seed)
+        return learned_lib.shipped(args.policy, args.risk or DEFAULT_SETTING["risk"],
+                                   args.energy or DEFAULT_SETTING["energy"], grid_size=args.grid_size)
+    if not spec.learned or args.no_learned:
+        if args.checkpoint:
+            raise ValueError(f"--checkpoint: Table {spec.name} has no learned row" if not spec.learned
+                             else "--checkpoint and --no-learned exclude each other")
+        return None
+    if not args.checkpoint:
+        try:
+            return shipped_learner(spec, grid_size=args.grid_size)
+        except ValueError as e:
+            print(f"warning: Table {spec.name}: learned row {spec.learned[0]} left out: {e}", file=sys.stderr)
+            return None
+    learned = learned_lib.load(args.checkpoint, net=spec.learned[0], grid_size=args.grid_size,
+                               run_seed=args.run_seed)
+    try:
+        return check_learner(spec, learned)
+    except ValueError as e:
+        raise ValueError(f"--checkpoint {args.checkpoint}: {e}") from None
+
+
+def settle(args, spec: TableSpec | None, learned: Learned | None, argv=None) -> EvalDCPSettings:
+    """The settings of the parsed arguments, given the table and the learned network already resolved.
+
+    The learned network is resolved first (:func:`resolve_learned`), so that
+    the run's first line names it before the setting is read (``--risk-map``);
+    a ``ValueError`` names a bad value.
+    """
+    risk_map = load_risk_map(args.risk_map, "--risk-map") if args.risk_map else None
+    setting = evaluation_setting(spec, learned, risk=args.risk, total_reward=args.total_reward, energy=args.energy,
+                                 max_steps=args.max_steps, grid_size=args.grid_size, risk_map=risk_map)
+    playing = Playing(episodes=args.episodes, seed=args.seed,
+                      planner=PlannerConfig(cf_distance=args.cf_distance, shortest_move=args.shortest_move,
+                                            lpg_init=args.lpg_init),
+                      path_risk=args.path_risk, greedy=args.greedy, epsilon=args.epsilon, rpe_zero=args.rpe_zero)
+    options = EnvOptions(start=args.start, items_on_base=not args.no_items_on_base, energy_metric=args.energy_metric,
+                         idle_terminates=not args.no_idle_stop, item_order=args.item_order)
+    return EvalDCPSettings(
+        table=spec, policies=table_policies(spec, learned) if spec else (args.policy,), learned=learned,
+        setting=setting, options=options, playing=playing, json=args.json, out=args.out,
+        command="python -m eval.dcp " + " ".join(argv if argv is not None else sys.argv[1:]))
+
+
+def write_table(settings: EvalDCPSettings, rows: dict, incr: dict, table: str) -> str:
+    """Write ``table_<T>.json`` and ``table_<T>.md`` into ``settings.out``; the JSON's path."""
+    spec = settings.table
+    path = os.path.join(settings.out, f"table_{spec.name}.json")
+    atomic_write_json(path, table_payload(spec, settings.command, rows, incr, settings.learned))
+    atomic_write(os.path.join(settings.out, f"table_{spec.name}.md"),
+                 table_markdown_file(spec, settings.command, table))
+    return path
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    enable_compilation_cache()
+    spec = TABLES[args.table] if args.table else None
+    if spec and args.risk_map:
+        parser.error("--table runs the thesis' own setting; it cannot take --risk-map")
+    if spec:
+        given = [f for f, v in (("--risk", args.risk), ("--total-reward", args.total_reward),
+                                ("--energy", args.energy)) if v is not None]
+        if given:
+            parser.error(f"--table runs the thesis' own setting; it cannot take {', '.join(given)}")
+
+    def progress(name, s):
+        if not args.json:
+            print(f"  {name:14s} reward {s['reward']['mean']:.2f}  ({s['seconds']:.1f} s)", file=sys.stderr)
+
+    try:
+        if args.energy is not None:
+            dcp_env.check_energy(args.energy)
+        learned = resolve_learned(args, spec)
+        if not args.json:
+            what = f"Table {spec.name}: {spec.caption}" if spec else f"policy {args.policy}"
+            print(f"Evaluating {what}, {args.episodes} episodes, seed {args.seed} ...", file=sys.stderr)
+            if learned is not None:
+                print(f"  learned: {learned_lib.describe(learned)}", file=sys.stderr)
+        settings = settle(args, spec, learned, argv)
+        rows = evaluate_rows(settings.policies, settings.setting, settings.options, settings.playing,
+                             settings.learned, progress)
+    except (TypeError, ValueError) as e:
+        parser.error(str(e))
+    return show(settings, rows)
+
+
+def show(settings: EvalDCPSettings, rows: dict) -> int:
+    """Print the rows (one JSON object with ``--json``, else the markdown table); a table also writes its files."""
+    spec = settings.table
+    learner = settings.learned.net_name if settings.learned is not None else None
+    incr = incr_rows(spec, rows, learner) if spec else {}
+    table = markdown_table(spec, rows, incr)
+    if spec:
+        path = write_table(settings, rows, incr, table)
+    if settings.json:
+        print(json.dumps(rows if spec else rows[settings.policies[0]]))
+    else:
+        print(table)
+        if spec:
+            print(f"\nwritten to {path} and .md", file=sys.stderr)
+    return 0

@@ -1,0 +1,71 @@
+"""The rows of a DCP results table (section 4.5): each policy played in one setting and summarized.
+
+A row is a navigator or planner (Algorithms 7-9), the exact single-item
+optimum (section 4.5.4) or a learned network (sections 4.4.3, 4.5), played
+for the same episodes from the same key and summarized into the thesis'
+columns (:func:`jaxdc.dcp.evaluate.summarize`) plus the wall time of the row.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Callable
+
+import jax
+
+from jaxdc.dcp.evaluate import evaluate_heuristic, evaluate_learned, evaluate_optimal, summarize
+from jaxdc.dcp.learned import EQN_EPSILON, NETS
+from jaxdc.dcp.planners import PlannerConfig
+from jaxdc.dcp.setting import EnvOptions, Setting, make_env
+
+
+@dataclasses.dataclass(frozen=True)
+class Playing:
+    """How every row is played and summarized: episodes, seed, planner options, path risk, learned policy, RPE."""
+
+    episodes: int = 10_000
+    seed: int = 0
+    planner: PlannerConfig = PlannerConfig()
+    path_risk: str = "departed"
+    greedy: bool = False
+    epsilon: float = EQN_EPSILON
+    rpe_zero: str = "exclude"
+
+
+def table_policies(spec, learned=None) -> tuple[str, ...]:
+    """The rows of table ``spec``: its navigators, then ``learned``'s network when there is one."""
+    return spec.heuristic_rows + ((learned.net_name,) if learned is not None else ())
+
+
+def evaluate_row(name: str, setting: Setting, options: EnvOptions, playing: Playing, learned=None) -> dict:
+    """The summary of policy ``name`` (``"optimal"`` adds ``expected_optimum``), with its ``seconds``."""
+    t0 = time.perf_counter()
+    key = jax.random.PRNGKey(playing.seed)
+    if name in NETS:
+        env, params = make_env(setting, options, learned)
+        final = evaluate_learned(env, params, learned, key, playing.episodes, playing.greedy, playing.epsilon,
+                                 playing.planner, playing.path_risk)
+    elif name == "optimal":
+        env, params = make_env(setting, options)
+        final, optimum = evaluate_optimal(env, params, key, playing.episodes)
+    else:
+        env, params = make_env(setting, options)
+        final = evaluate_heuristic(env, params, name, key, playing.episodes, playing.planner, playing.path_risk)
+    jax.block_until_ready(final)
+    row = summarize(final, playing.rpe_zero)
+    if name == "optimal":
+        row["expected_optimum"] = optimum
+    row["seconds"] = round(time.perf_counter() - t0, 3)
+    return row
+
+
+def evaluate_rows(policies, setting: Setting, options: EnvOptions, playing: Playing, learned=None,
+                  progress: Callable[[str, dict], None] | None = None) -> dict:
+    """``{policy: summary}`` of each of ``policies`` in order; ``progress(name, summary)`` after each row."""
+    out = {}
+    for name in policies:
+        out[name] = evaluate_row(name, setting, options, playing, learned)
+        if progress:
+            progress(name, out[name])
+    return out

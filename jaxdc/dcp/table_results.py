@@ -1,0 +1,68 @@
+"""The written results of a thesis table (section 4.5): the JSON record and the markdown, thesis beside ours.
+
+A table's rows (:mod:`jaxdc.dcp.rows`) and Incr.% columns
+(:func:`jaxdc.dcp.tables.incr_rows`) become ``table_<T>.json`` (the command,
+the thesis' numbers, ours, the learned row's provenance) and
+``table_<T>.md``; the markdown is also what ``python -m eval.dcp`` prints.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+from jaxdc.dcp.tables import COLUMNS
+
+
+def _fmt(x, digits):
+    return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}f}"
+
+
+def markdown_table(spec, rows: dict, incr: dict | None = None) -> str:
+    """Mean ± SD of reward, energy and RPE per row (thesis beside ours; ``spec=None``: ours only), then Incr.%."""
+    head = ("| policy | reward (thesis) | reward (ours) | energy (thesis) | energy (ours) | RPE (thesis) | RPE (ours) "
+            "| ours: outcomes |")
+    lines = [head, "|" + "---|" * 8]
+    for name, s in rows.items():
+        th = spec.rows.get(name, (None,) * 6) if spec else (None,) * 6
+        cells = [name]
+        for col, i in COLUMNS:
+            d = 3 if col == "rpe" else 2
+            cells.append(f"{_fmt(th[i], d)} ± {_fmt(th[i + 1], d)}" if th[i] is not None else "—")
+            cells.append(f"{_fmt(s[col]['mean'], d)} ± {_fmt(s[col]['sd'], d)}")
+        cells.append(", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v))
+        lines.append("| " + " | ".join(cells) + " |")
+    if incr:
+        lines += ["", incr_markdown(incr)]
+    return "\n".join(lines)
+
+
+def incr_markdown(incr: dict) -> str:
+    """The incr.% columns (learner over each navigator, % of the navigator's mean), thesis beside ours."""
+    lines = ["| incr.% over | reward (thesis) | reward (ours) | energy (thesis) | energy (ours) | RPE (thesis) "
+             "| RPE (ours) |", "|" + "---|" * 7]
+    for name, cols in incr.items():
+        cells = [name] + [_fmt(v, 2) for col, _ in COLUMNS for v in cols[col]]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def table_markdown_file(spec, command: str, table: str) -> str:
+    """The text of ``table_<T>.md``: caption, the command that made it, the table."""
+    return f"### Table {spec.name}: {spec.caption}\n\n`{command}`\n\n{table}\n"
+
+
+def learned_info(learned) -> dict:
+    """What the results JSON says about a learned row: network, source and how it was trained."""
+    meta = learned.metadata
+    info = {"net": learned.net_name, "source": os.path.relpath(learned.source) if os.path.isabs(learned.source)
+            else learned.source, "trained": learned.setting()}
+    info.update({k: meta[k] for k in ("steps", "seed", "command") if k in meta})
+    return info
+
+
+def table_payload(spec, command: str, rows: dict, incr: dict, learned=None) -> dict:
+    """The record of ``table_<T>.json``: table, caption, command, the thesis' rows, ours, Incr.%, the learner."""
+    return {"table": spec.name, "caption": spec.caption, "command": command,
+            "thesis": {k: list(v) for k, v in spec.rows.items()}, "ours": rows, "incr": incr,
+            "learned": learned_info(learned) if learned is not None else None}

@@ -1,0 +1,65 @@
+"""The DCP tables of the results page (Tables 4.1 and 4.3-4.10, section 4.5), thesis beside ours.
+
+Each table is shown with the command that produced it; the ``Δ/SE`` column
+gives ours minus the thesis in standard errors of the thesis' mean
+(``sd / sqrt(episodes)``), so that a reader can see at a glance which rows
+reproduce. A table with a learned row (ENN, the linear learner, EQN) also
+shows where its parameters came from and the thesis' incr.% columns (the
+learner's increment over each navigator, % of the navigator's mean) beside ours.
+"""
+
+from __future__ import annotations
+
+import math
+
+
+def _se_delta(ours, thesis, sd, episodes):
+    if thesis is None or sd in (None, 0) or ours is None or math.isnan(ours):
+        return "—"
+    return f"{(ours - thesis) / (sd / math.sqrt(episodes)):+.1f}"
+
+
+def _f(x, d):
+    return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{d}f}"
+
+
+def _pm(mean, sd, d):
+    return "—" if mean is None else f"{_f(mean, d)} ± {_f(sd, d)}"
+
+
+def dcp_table(payload: dict) -> str:
+    """The markdown of one ``table_<T>.json`` written by ``python -m eval.dcp --table T``."""
+    lines = [
+        f"### Table {payload['table']}: {payload['caption']}",
+        "",
+        f"`{payload['command']}`",
+        "",
+        "| policy | reward thesis | reward ours | Δ/SE | energy thesis | energy ours | RPE thesis | RPE ours |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, s in payload["ours"].items():
+        th = payload["thesis"].get(name, [None] * 6)
+        n = s["episodes"]
+        lines.append(
+            f"| {name} | {_pm(th[0], th[1], 2)} | {_pm(s['reward']['mean'], s['reward']['sd'], 2)} "
+            f"| {_se_delta(s['reward']['mean'], th[0], th[1], n)} "
+            f"| {_pm(th[2], th[3], 2)} | {_pm(s['energy']['mean'], s['energy']['sd'], 2)} "
+            f"| {_pm(th[4], th[5], 3)} | {_pm(s['rpe']['mean'], s['rpe']['sd'], 3)} |"
+        )
+    learned = payload.get("learned")
+    if learned:
+        how = f", trained by `{learned['command']}`" if learned.get("command") else ""
+        lines += ["", f"Learned row `{learned['net']}`: parameters `{learned['source']}`{how}."]
+    if payload.get("incr"):
+        lines += ["", incr_table(payload["incr"])]
+    return "\n".join(lines)
+
+
+def incr_table(incr: dict) -> str:
+    """The incr.% columns of Tables 4.3-4.10, thesis beside ours (``jaxdc.dcp.tables.incr_percent``)."""
+    lines = ["| learner's incr.% over | reward thesis | reward ours | energy thesis | energy ours | RPE thesis "
+             "| RPE ours |", "|---|---|---|---|---|---|---|"]
+    for name, cols in incr.items():
+        cells = [_f(v, 2) for col in ("reward", "energy", "rpe") for v in cols[col]]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
