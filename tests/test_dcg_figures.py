@@ -65,3 +65,7 @@ def test_family_splits_faithful_and_strong_bars():
     results = {None: {"VNN": 1, "VNN strong": 2, "OMN+CoNN strong": 3}}
     assert family(results, False) == {None: {"VNN": 1}}
     assert family(results, True) == {None: {"VNN": 2, "OMN+CoNN": 3}}
+
+
+def test_the_per_strategy_chart_joins_the_one_group_experiments():
+    assert {n for n, e in EXPERIMENTS.items() if e.per_strategy_chart} == {"standard", "standard_5m", "double_blind"}

@@ -58,8 +58,6 @@ IMAGES = os.path.join("docs", "img")
 #: The subcommands; a command line that does not start with one of them is an ``evaluate``.
 SUBCOMMANDS = ("evaluate", "figure", "render", "optimum")
 DEFAULT_SUBCOMMAND = "evaluate"
-#: The experiments whose charts include the reward per opponent strategy.
-PER_STRATEGY_CHARTS = ("standard", "double_blind", "standard_5m")
 
 
 # -- argument types and groups ------------------------------------------------------------------
@@ -341,7 +339,7 @@ def _figure(args, command) -> int:
                 title = f"Fig. {fig_no} (ours): {'episode reward' if col == 'reward' else 'RPE'}\n{exp.caption}"
                 images.append(save_bar_chart(path, data.results, exp.groups, col, title, data.bounds,
                                              [f"{exp.group_name} {group_key(g)}" for g in exp.groups]))
-            if name in PER_STRATEGY_CHARTS:
+            if exp.per_strategy_chart:
                 path = os.path.join(s.img, f"dcg_{name}_per_strategy.png")
                 p = save_strategy_chart(path, data.results[None],
                                         f"Episode reward per opponent strategy (ours)\n{exp.caption}")

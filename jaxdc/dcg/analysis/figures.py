@@ -49,21 +49,23 @@ class Experiment:
     strong: str | None = None
     #: whether the charts draw the sampled full-information bound of the game (jaxdc.dcg.exact.many_items)
     game_bound: bool = False
+    #: whether a chart of each network's reward per opponent strategy joins the figures (ours, not the thesis')
+    per_strategy_chart: bool = False
 
 
 EXPERIMENTS = {
     "standard": Experiment("standard", ("5.6", "5.7"), "standard setting (5x5, 10 rewards, energy 15), 1M steps",
-                           "", (None,), strong="1m", game_bound=True),
+                           "", (None,), strong="1m", game_bound=True, per_strategy_chart=True),
     "energy": Experiment("energy", ("5.8", "5.9"), "maximum energy 10, 15, 20 (section 5.5.4)", "energy",
                          (10.0, 15.0, 20.0)),
     "area": Experiment("area", ("5.11", "5.12"), "one unit item in the bottom-right s x s reward area "
                        "(section 5.5.5, Fig. 5.10)", "reward area", (1, 2, 3, 4), strong="final"),
     "standard_5m": Experiment("standard_5m", ("5.16", "5.17"), "standard setting, 5M training steps (section 5.5.6)",
                               "", (None,), five_million=True, strong="final",
-                              game_bound=True),
+                              game_bound=True, per_strategy_chart=True),
     "double_blind": Experiment("double_blind", ("5.18", "5.19"), "with-fog replaced by double-blind with-fog "
                                "(section 5.5.7), 1M steps", "", (None,), DOUBLE_BLIND_STRATEGIES,
-                               DOUBLE_BLIND_STRATEGIES),
+                               DOUBLE_BLIND_STRATEGIES, per_strategy_chart=True),
 }
 #: Figure number -> experiment name.
 FIGURES = {f: e.name for e in EXPERIMENTS.values() for f in e.figures}
