@@ -12,7 +12,7 @@ import pytest
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import navigators
 from jaxdc.dcp.env import DCP
-from jaxdc.dcp.evaluate import evaluate_heuristic, summarize
+from jaxdc.dcp.evaluate import OptimalEvaluation, evaluate_heuristic, evaluate_optimal, summarize
 from jaxdc.dcp.optimal import expected_optimum, optimal_policy, solve_single_item
 
 MOVES = [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)]
@@ -148,3 +148,17 @@ def test_small_grid_simulation(start="random", items_on_base=False):
     finals = jax.jit(lambda k: run_episodes(env, params, optimal_policy(sol), k, 4000))(jax.random.key(3))
     mean, se = _mean_se(finals)
     assert abs(mean - opt) <= 4 * se + 1e-9, (mean, opt, se)
+
+
+def test_evaluate_optimal_is_a_named_record():
+    env = DCP(grid_size=3, total_reward=1, start="base")
+    rho = _random_risk(3, seed=5).astype(np.float32)
+    params = env.make_params(rho, (2.0, 3.0))
+    got = evaluate_optimal(env, params, jax.random.key(1), 50)
+    assert isinstance(got, OptimalEvaluation)
+    assert got.expected_optimum == pytest.approx(expected_optimum(solve_single_item(rho, 3, 2), start="base"))
+    assert np.asarray(got.final.ep_reward).shape == (50,)
+    final, optimum = got  # still unpacks as (final states, expected optimum)
+    assert optimum == got.expected_optimum
+    with pytest.raises(ValueError, match="total_reward=1"):
+        evaluate_optimal(DCP(grid_size=3, total_reward=2), params, jax.random.key(1), 5)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import NamedTuple
 
 import jax
 import numpy as np
@@ -98,11 +99,18 @@ def evaluate_learned(
                         bool(greedy), jax.numpy.float32(epsilon), cfg, path_risk)
 
 
-def evaluate_optimal(env: DCP, params: EnvParams, key, episodes: int = 10_000):
+class OptimalEvaluation(NamedTuple):
+    """The exact single-item optimum played (section 4.5.4): its episodes' final states and its expected reward."""
+
+    final: object  # the final EnvState of every episode, batched
+    expected_optimum: float  # the optimal expected reward over the start distribution
+
+
+def evaluate_optimal(env: DCP, params: EnvParams, key, episodes: int = 10_000) -> OptimalEvaluation:
     """Final states of the exact optimal policy of the single-item DCP (``total_reward=1``).
 
     Solves the MDP by value iteration (:mod:`jaxdc.dcp.optimal`) and plays it
-    like any other policy. Returns ``(final_states, expected_optimum)``.
+    like any other policy.
     """
     from jaxdc.dcp.optimal import expected_optimum, optimal_policy, solve_single_item
 
@@ -113,7 +121,7 @@ def evaluate_optimal(env: DCP, params: EnvParams, key, episodes: int = 10_000):
     )
     episodes = check_positive_int("episodes", episodes)
     final = jax.jit(lambda k: run_episodes(env, params, optimal_policy(sol), k, episodes))(key)
-    return final, expected_optimum(sol, env.items_on_base, env.start)
+    return OptimalEvaluation(final, expected_optimum(sol, env.items_on_base, env.start))
 
 
 def summarize(final_states, rpe_zero: str = "exclude") -> dict:

@@ -36,9 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdc.core import grid
-
-#: Initial agent distributions of :data:`jaxdc.dcp.env.STARTS`.
-STARTS = ("random_free", "random", "base")
+from jaxdc.dcp.env import STARTS
 
 
 class OptimalSolution(NamedTuple):

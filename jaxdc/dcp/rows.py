@@ -48,14 +48,15 @@ def evaluate_row(name: str, setting: Setting, options: EnvOptions, playing: Play
                                  playing.planner, playing.path_risk)
     elif name == "optimal":
         env, params = make_env(setting, options)
-        final, optimum = evaluate_optimal(env, params, key, playing.episodes)
+        optimal = evaluate_optimal(env, params, key, playing.episodes)
+        final = optimal.final
     else:
         env, params = make_env(setting, options)
         final = evaluate_heuristic(env, params, name, key, playing.episodes, playing.planner, playing.path_risk)
     jax.block_until_ready(final)
     row = summarize(final, playing.rpe_zero)
     if name == "optimal":
-        row["expected_optimum"] = optimum
+        row["expected_optimum"] = optimal.expected_optimum
     row["seconds"] = round(time.perf_counter() - t0, 3)
     return row
 
