@@ -1,65 +1,71 @@
 """argparse value types shared by the command lines (``train.*``, ``eval.*``).
 
-Each type validates at the command line, outside jit, and its error names the
-flag and the value (the house rule for bad input); argparse turns it into a
-usage error with exit status 2.
+Each type validates at the command line, outside jit, through the checks of
+:mod:`jaxdc.core.validate`: a number must be finite (``inf`` only where a type
+allows it), in its range and, for an integer, small enough for the int32
+counters of the device code; a seed must lie in ``0 .. 2**32 - 1``. The error
+names the flag, the value and the allowed range; argparse turns it into a usage
+error with exit status 2.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
+
+from jaxdc.core.validate import INT32_MAX, SEED_MAX, check_float
 
 
-def positive_float(name: str, allow_inf: bool = False):
-    """argparse type: a float > 0; finite unless ``allow_inf`` (then ``"inf"`` is accepted)."""
-    extra = " (or 'inf')" if allow_inf else ""
-
-    def parse(text):
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number > 0{extra}, got {text!r}") from None
-        if not v > 0 or (math.isinf(v) and not allow_inf):
-            raise argparse.ArgumentTypeError(f"{name} must be > 0{extra}, got {text!r}")
-        return v
-
-    return parse
+def _number(name: str, text: str, **limits) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+    try:
+        return check_float(name, v, **limits)
+    except (TypeError, ValueError) as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
-def nonnegative_float(name: str):
-    """argparse type: a float >= 0."""
-    def parse(text):
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number >= 0, got {text!r}") from None
-        if not v >= 0:
-            raise argparse.ArgumentTypeError(f"{name} must be >= 0, got {text!r}")
-        return v
-
-    return parse
+def _whole(name: str, text: str, low: int, high: int) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{name} must be an integer >= {low}, got {text!r}") from None
+    if v < low:
+        raise argparse.ArgumentTypeError(f"{name} must be an integer >= {low}, got {v}")
+    if v > high:
+        raise argparse.ArgumentTypeError(f"{name} must be an integer <= {high}, got {v}")
+    return v
 
 
-def integer(name: str, low: int | None = None):
-    """argparse type: an int (``>= low`` when given)."""
-    what = "an integer" if low is None else f"an integer >= {low}"
-
-    def parse(text):
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be {what}, got {text!r}") from None
-        if low is not None and v < low:
-            raise argparse.ArgumentTypeError(f"{name} must be {what}, got {v}")
-        return v
-
-    return parse
+def finite_float(name: str, low: float | None = None, high: float | None = None, low_open: bool = False):
+    """argparse type: a finite float in ``[low, high]`` (``(low, high]`` with ``low_open``)."""
+    return lambda text: _number(name, text, low=low, high=high, low_open=low_open)
 
 
-def positive_int(name: str):
-    """argparse type: an int >= 1."""
-    return integer(name, low=1)
+def positive_float(name: str, allow_inf: bool = False, high: float | None = None):
+    """argparse type: a float > 0 (at most ``high``); finite unless ``allow_inf`` (then ``"inf"`` is accepted)."""
+    return lambda text: _number(name, text, low=0.0, high=high, low_open=True, allow_inf=allow_inf)
+
+
+def nonnegative_float(name: str, high: float | None = None):
+    """argparse type: a finite float >= 0 (at most ``high``)."""
+    return lambda text: _number(name, text, low=0.0, high=high)
+
+
+def integer(name: str, low: int | None = None, high: int = INT32_MAX):
+    """argparse type: an int in ``[low, high]`` (``low=None``: ``-high``); ``high`` defaults to the int32 limit."""
+    return lambda text: _whole(name, text, -high if low is None else low, high)
+
+
+def positive_int(name: str, high: int = INT32_MAX):
+    """argparse type: an int in ``[1, high]``."""
+    return integer(name, low=1, high=high)
+
+
+def seed(name: str = "--seed"):
+    """argparse type: a seed, an int in ``[0, 2**32 - 1]``."""
+    return integer(name, low=0, high=SEED_MAX)
 
 
 def unit_interval(name: str, open_interval: bool = False):
@@ -67,10 +73,7 @@ def unit_interval(name: str, open_interval: bool = False):
     span = "(0, 1)" if open_interval else "[0, 1]"
 
     def parse(text):
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number in {span}, got {text!r}") from None
+        v = _number(name, text)
         if not (0 < v < 1 if open_interval else 0 <= v <= 1):
             raise argparse.ArgumentTypeError(f"{name} must be in {span}, got {text!r}")
         return v
@@ -79,12 +82,15 @@ def unit_interval(name: str, open_interval: bool = False):
 
 
 def seed_list(name: str):
-    """argparse type: distinct comma-separated ints, e.g. ``0,1,2``."""
+    """argparse type: distinct comma-separated seeds, e.g. ``0,1,2`` (each in ``[0, 2**32 - 1]``)."""
     def parse(text):
         try:
             seeds = [int(x) for x in text.split(",")]
         except ValueError:
             raise argparse.ArgumentTypeError(f"{name} must be comma-separated ints, e.g. 0,1,2, got {text!r}") from None
+        for s in seeds:
+            if not 0 <= s <= SEED_MAX:
+                raise argparse.ArgumentTypeError(f"{name} must hold seeds in [0, {SEED_MAX}], got {s}")
         if len(set(seeds)) != len(seeds):
             raise argparse.ArgumentTypeError(f"{name} must be distinct, got {text!r}")
         return seeds

@@ -71,7 +71,7 @@ def check_float(name: str, value, low: float | None = None, high: float | None =
     if v is None:
         raise TypeError(f"{name} must be a number {rng}, got {value!r}")
     if math.isnan(v):
-        raise ValueError(f"{name} must be a number {rng}, got NaN")
+        raise ValueError(f"{name} must be {rng}, got NaN")
     if math.isinf(v):
         if not (allow_inf and v > 0):
             raise ValueError(f"{name} must be {'a finite number ' if not allow_inf else ''}{rng}, got {v}")

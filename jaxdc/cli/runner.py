@@ -1,0 +1,51 @@
+"""How every jaxdc command line ends: exit statuses, one-line errors, Ctrl-C.
+
+:func:`run` calls a program's ``main(argv)`` and turns
+
+* ``KeyboardInterrupt`` (Ctrl-C, SIGINT) into exit status 130 with one line
+  on stderr (files are written atomically, so the old or the complete new set
+  is left);
+* SIGTERM into the same path as Ctrl-C (status 143);
+* a ``ValueError``/``TypeError`` raised by jaxdc's validation into
+  ``<prog>: error: <message>`` and exit status 2, as argparse does for flags.
+
+Set ``JAXDC_DEBUG=1`` to see the full traceback instead.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+
+#: Exit statuses: a usage or input error (as argparse), Ctrl-C, SIGTERM.
+EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 130, 143
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that the same clean-up runs as for Ctrl-C."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
+def run(main, prog: str, argv=None) -> int:
+    """``main(argv)``'s exit status, with the conventions above."""
+    debug = bool(os.environ.get("JAXDC_DEBUG"))
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        return int(main(argv) or 0)
+    except Terminated:
+        print(f"{prog}: terminated", file=sys.stderr)
+        return EXIT_TERMINATED
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (ValueError, TypeError) as e:
+        if debug:
+            raise
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return EXIT_USAGE
+    finally:
+        signal.signal(signal.SIGTERM, previous)
