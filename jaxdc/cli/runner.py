@@ -6,8 +6,9 @@
   on stderr (files are written atomically, so the old or the complete new set
   is left);
 * SIGTERM into the same path as Ctrl-C (status 143);
-* a ``ValueError``/``TypeError`` raised by jaxdc's validation into
-  ``<prog>: error: <message>`` and exit status 2, as argparse does for flags.
+* a ``ValueError``/``TypeError`` raised by jaxdc's validation, or the
+  ``MemoryError`` of a request too big for the machine (:mod:`jaxdc.core.memory`),
+  into ``<prog>: error: <message>`` and exit status 2, as argparse does for flags.
 
 Set ``JAXDC_DEBUG=1`` to see the full traceback instead.
 """
@@ -42,7 +43,7 @@ def run(main, prog: str, argv=None) -> int:
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except (ValueError, TypeError) as e:
+    except (ValueError, TypeError, MemoryError) as e:
         if debug:
             raise
         print(f"{prog}: error: {e}", file=sys.stderr)

@@ -62,7 +62,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxdc.core import grid
+from jaxdc.core import grid, memory
 
 #: The two readings of which cells' risk a path pays (see module docstring).
 PATH_RISK: tuple[str, ...] = ("departed", "entered")
@@ -178,6 +178,11 @@ def _single_target(lw, b, succ, valid, adj, departed: bool, tie_tol):
     return cost, action, steps
 
 
+#: Peak bytes per (source, target) pair while the table is built (the vmapped searches and the three
+#: ``[N^2, N^2]`` outputs; about 100 measured on the CPU at N = 40): the table grows as ``N^4``.
+BYTES_PER_PAIR = 128
+
+
 def _check_path_risk(path_risk) -> bool:
     if path_risk not in PATH_RISK:
         raise ValueError(f"path_risk must be one of {PATH_RISK}, got {path_risk!r}")
@@ -206,7 +211,8 @@ def safest_paths(risk, path_risk: str = "departed", tie_tol: float = 1e-6) -> Pa
     departed = _check_path_risk(path_risk)
     if jnp.ndim(risk) != 2 or jnp.shape(risk)[0] != jnp.shape(risk)[1]:
         raise ValueError(f"risk map must be a square N x N array, got shape {jnp.shape(risk)}")
-    grid.check_grid_size(int(jnp.shape(risk)[0]))
+    n = grid.check_grid_size(int(jnp.shape(risk)[0]))
+    memory.check_fits(BYTES_PER_PAIR * n**4, f"the safest-path table of a {n} x {n} grid", "the grid size")
     # Jitted internally so that eager calls compile once per shape instead of
     # dispatching the while_loops op by op; inlined under an outer jit/vmap.
     return _safest_paths(risk, departed, tie_tol)

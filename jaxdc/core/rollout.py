@@ -20,6 +20,7 @@ from typing import Callable
 import jax
 import jax.numpy as jnp
 
+from jaxdc.core import memory
 from jaxdc.core.env import tree_select
 
 #: Default number of lanes (episodes stepped at once).
@@ -40,6 +41,10 @@ def run_episodes(env, params, policy: Callable, key, num_episodes: int, lanes: i
     """
     n = int(num_episodes)
     lanes = min(n, int(lanes or DEFAULT_LANES))
+    obs_shape, state_shape = jax.eval_shape(env.reset_env, jax.random.PRNGKey(0), params)
+    # every episode's initial state, observation and final state are held at once, plus its two keys
+    per_episode = memory.tree_bytes(obs_shape) + 2 * memory.tree_bytes(state_shape) + 32
+    memory.check_fits(n * per_episode, f"{n} evaluation episodes", "the number of episodes")
     ep_keys = jax.random.split(key, n)
     reset_keys, run_keys = jnp.split(jax.vmap(lambda k: jax.random.split(k, 2))(ep_keys), 2, axis=1)
     run_keys = run_keys[:, 0]

@@ -1,0 +1,54 @@
+"""Memory estimates checked before a large allocation, so that a request too big for the machine is refused
+with a message that says what to lower, instead of aborting inside XLA (``std::bad_alloc``, RESOURCE_EXHAUSTED).
+
+:func:`available_bytes` is the memory of the default device: the allocator's
+limit on an accelerator, the available host memory on the CPU. Set
+``JAXDC_MEMORY_LIMIT`` (bytes) to use another limit, e.g. to share a machine.
+"""
+
+from __future__ import annotations
+
+import os
+
+import jax
+import numpy as np
+
+
+def available_bytes() -> int | None:
+    """Bytes a computation may use on the default device; ``None`` if unknown."""
+    env = os.environ.get("JAXDC_MEMORY_LIMIT")
+    if env:
+        return int(float(env))
+    device = jax.devices()[0]
+    if device.platform != "cpu":
+        stats = device.memory_stats() or {}
+        limit = stats.get("bytes_limit")
+        if limit:
+            return int(limit) - int(stats.get("bytes_in_use", 0))
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def tree_bytes(tree) -> int:
+    """Bytes of the arrays (or ``ShapeDtypeStruct``s) of a pytree."""
+    return sum(int(np.prod(x.shape)) * np.dtype(x.dtype).itemsize for x in jax.tree_util.tree_leaves(tree))
+
+
+def check_fits(needed: int, what: str, lower: str) -> None:
+    """``MemoryError`` if ``needed`` bytes exceed :func:`available_bytes`; the message names ``what`` and ``lower``."""
+    limit = available_bytes()
+    if limit is not None and needed > limit:
+        raise MemoryError(f"{what} needs about {_gib(needed)} but {_gib(limit)} is available; lower {lower}")
+
+
+def _gib(b: int) -> str:
+    return f"{b / 2**30:.1f} GiB" if b >= 2**28 else f"{b / 2**20:.0f} MiB"

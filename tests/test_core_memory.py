@@ -1,0 +1,30 @@
+"""jaxdc.core.memory: requests too big for the machine are refused before anything is allocated."""
+
+import jax
+import pytest
+
+from jaxdc.core import grid, memory, paths
+from jaxdc.core.rollout import run_episodes
+from jaxdc.dcp.env import DCP
+
+
+def test_limit_from_the_environment(monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", "1e6")
+    assert memory.available_bytes() == 1_000_000
+    with pytest.raises(MemoryError, match=r"needs about .* but 1 MiB is available; lower the grid size"):
+        paths.safest_paths(grid.risk_map("high", 12))  # 128 * 12**4 = 2.7 MB
+    memory.check_fits(999_999, "x", "y")
+
+
+def test_too_many_episodes_are_refused_before_the_rollout(monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(10 * 2**20))
+    env = DCP(grid_size=4, total_reward=3)
+    params = env.make_params(risk="low", energy=(4.0, 8.0), max_steps=10)
+    policy = lambda k, obs, state: jax.random.randint(k, (), 0, 9)
+    with pytest.raises(MemoryError, match="1000000 evaluation episodes .* lower the number of episodes"):
+        run_episodes(env, params, policy, jax.random.PRNGKey(0), 1_000_000)
+    assert run_episodes(env, params, policy, jax.random.PRNGKey(0), 20).time.shape == (20,)
+
+
+def test_tree_bytes():
+    assert memory.tree_bytes({"a": jax.ShapeDtypeStruct((3, 4), "float32"), "b": jax.numpy.zeros(2, "int8")}) == 50
