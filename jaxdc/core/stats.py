@@ -9,19 +9,21 @@ so one function serves both; each problem passes its own outcome names.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 #: How RPE treats an episode that consumed no energy (footnote 4 of Table 4.3 is silent).
 RPE_ZERO = ("exclude", "zero")
 
 
-def mean_sd(x) -> dict:
-    """``{"mean", "sd"}`` of a 1-D sample (population SD, ``ddof=0``); NaNs for an empty one."""
+def mean_sd(x, empty: str = "no episodes") -> dict:
+    """``{"mean", "sd"}`` of a 1-D sample (population SD, ``ddof=0``).
+
+    An empty sample has no mean: ``{"mean": None, "sd": None, "undefined": empty}``
+    (``None`` is JSON's ``null``; ``empty`` says why), never NaN.
+    """
     x = np.asarray(x, np.float64)
     if x.size == 0:
-        return {"mean": math.nan, "sd": math.nan}
+        return {"mean": None, "sd": None, "undefined": empty}
     return {"mean": float(x.mean()), "sd": float(x.std())}
 
 
@@ -60,7 +62,8 @@ def episode_summary(final_states, outcomes, rpe_zero: str = "exclude", mask=None
     return {
         "reward": mean_sd(reward),
         "energy": mean_sd(energy),
-        "rpe": mean_sd(reward_per_energy(reward, energy, rpe_zero)),
+        "rpe": mean_sd(reward_per_energy(reward, energy, rpe_zero),
+                       "no episode consumed energy" if reward.size else "no episodes"),
         "episodes": int(reward.size),
         "outcomes": {name: int((outcome == i).sum()) for i, name in enumerate(outcomes) if name != "running"},
         "steps": mean_sd(steps),
