@@ -10,7 +10,7 @@ from __future__ import annotations
 from jaxdc.dcp.env import DCP, EnvParams, EnvState
 
 __version__ = "0.1.0"
-__all__ = ["DCP", "EnvParams", "EnvState", "make", "__version__"]
+__all__ = ["DCP", "EnvParams", "EnvState", "make", "registered_envs", "__version__"]
 
 _GYM_ID = "jaxdc/DCP-v0"
 _DCG_GYM_ID = "jaxdc/DCG-v0"
@@ -40,8 +40,16 @@ def _register() -> None:
 _register()
 
 
+def registered_envs() -> tuple[str, ...]:
+    """The ids :func:`make` accepts (``"DCP-v0"``, ``"DCG-v0"``; gymnasium knows them as ``"jaxdc/<id>"``)."""
+    return tuple(_PARAM_KEYS)
+
+
 def make(id: str, **kwargs):
-    """``(env, params)`` of the functional environment ``id``: ``"DCP-v0"`` or ``"DCG-v0"``.
+    """``(env, params)`` of the functional environment ``id`` (one of :func:`registered_envs`), gymnax style::
+
+        env, params = jaxdc.make("DCP-v0", risk="low", grid_size=6)
+        obs, state = env.reset(key, params)
 
     The keywords of ``make_params`` (DCP: ``risk``, ``energy``, ``max_steps``;
     DCG: ``energy``, ``max_steps``, ``chase_tie``) go there, the others to the
