@@ -75,6 +75,19 @@ def finite_or_none(x):
     return x if math.isfinite(x) else None
 
 
+def unlimited_to_json(x):
+    """A setting that may be unlimited (an energy budget) as JSON: the number, or the string ``"inf"``.
+
+    JSON has no infinity; ``"inf"`` reads back with ``float("inf")``. A NaN is refused (it is no setting).
+    """
+    if isinstance(x, (list, tuple)):
+        return [unlimited_to_json(v) for v in x]
+    x = float(x)
+    if math.isnan(x):
+        raise ValueError("a setting cannot be NaN")
+    return "inf" if x == math.inf else x
+
+
 def atomic_write_json(path, obj) -> str:
     """``atomic_write`` of ``obj`` as indented strict JSON (:func:`json_text`)."""
     return atomic_write(path, json_text(obj) + "\n")

@@ -78,3 +78,12 @@ def test_output_paths_are_checked_before_any_work(tmp_path):
         ro.chmod(0o700)
     assert check_output_folder(tmp_path / "new" / "deep") == str(tmp_path / "new" / "deep")
     assert not (tmp_path / "new").exists()
+
+
+def test_unlimited_settings_are_written_as_the_string_inf():
+    from jaxdc.io import unlimited_to_json
+    assert unlimited_to_json(float("inf")) == "inf" and unlimited_to_json(8) == 8.0
+    assert unlimited_to_json((8.0, float("inf"))) == [8.0, "inf"]
+    assert float(unlimited_to_json(float("inf"))) == float("inf")
+    with pytest.raises(ValueError):
+        unlimited_to_json(float("nan"))
