@@ -208,3 +208,15 @@ def test_tensorboard_without_tensorboardx_names_the_extra(tmp_path, capsys, monk
 
     monkeypatch.setitem(sys.modules, "tensorboardX", None)  # import fails as if not installed
     _fails(capsys, TINY + ["--out", str(tmp_path / "tb"), "--tensorboard"], "jaxdc[tb]")
+
+
+def test_a_checkpoint_of_the_older_metadata_format_resumes(tmp_path):
+    """Format-1 metadata (learner options at their defaults and unset settings left out) is upgraded on resume."""
+    out = str(tmp_path / "old")
+    run = cli.Run(cli.build_parser().parse_args(TINY + ["--out", out]))
+    old = {k: v for k, v in run.metadata.items() if k != "min_total_reward"}
+    old["format"] = 1
+    old["algorithm"] = {k: v for k, v in old["algorithm"].items() if k not in common.LEARNER_OPTIONS}
+    checkpoint.save(run.ckpt_dir, 1, run.trainer.init(run.init_key()), old)
+    assert cli.main(TINY + ["--out", out, "--resume"]) == 0
+    assert checkpoint.steps(run.ckpt_dir)[-1] == 128
