@@ -17,14 +17,11 @@ import os
 import numpy as np
 import pytest
 
+from sb3_required import require_sb3  # noqa: E402
+
 pytestmark = pytest.mark.sb3
 
-if os.environ.get("JAXDC_REQUIRE_SB3") == "1":
-    import stable_baselines3  # noqa: F401  (CI: a missing SB3 is a failure, not a skip)
-    import torch  # noqa: F401
-else:
-    pytest.importorskip("torch")
-    pytest.importorskip("stable_baselines3")
+require_sb3()
 
 import gymnasium  # noqa: E402
 

@@ -44,15 +44,28 @@ def test_registered_and_reimport_safe():
     assert jaxdc.__version__ == "0.1.0"
 
 
-@pytest.mark.parametrize("kwargs", [{}, {"render_mode": "ansi"}, {"grid_size": 5, "risk": "low", "render_mode": "rgb_array"}])
-def test_check_env(kwargs):
-    env = gymnasium.make(ID, **kwargs)
+CHECK_ENV_CASES = [
+    (ID, {}, (8, 8, 2)),
+    (ID, {"render_mode": "ansi"}, (8, 8, 2)),
+    (ID, {"grid_size": 5, "risk": "low", "render_mode": "rgb_array"}, (5, 5, 2)),
+    (ID, {"energy": (float("inf"), float("inf"))}, (8, 8, 2)),
+    ("jaxdc/DCG-v0", {}, (5, 5, 12)),
+    ("jaxdc/DCG-v0", {"render_mode": "ansi", "strategies": ("patrol", "restricted", "double_blind")}, (5, 5, 12)),
+    ("jaxdc/DCG-v0", {"grid_size": 4, "history": 2, "obs_history": False, "render_mode": "rgb_array"}, (4, 4, 2)),
+]
+
+
+@pytest.mark.parametrize("env_id,kwargs,shape", CHECK_ENV_CASES)
+def test_check_env(env_id, kwargs, shape):
+    env = gymnasium.make(env_id, **kwargs)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the "infinite bound" advisories
+        warnings.simplefilter("error")  # finite bounds: no "infinite bound" advisory, no other warning
         check_env(env.unwrapped)
-    n = kwargs.get("grid_size", 8)
-    assert env.observation_space.shape == (n, n, 2)
+    assert env.observation_space.shape == shape and np.all(np.isfinite(env.observation_space.high))
     assert env.action_space == gymnasium.spaces.Discrete(9)
+    if env_id != ID:
+        return
+    n = shape[0]
     obs, info = env.reset(seed=3)
     assert obs.dtype == np.float32 and obs.shape == (n, n, 2)
     assert env.observation_space.contains(obs)

@@ -14,19 +14,6 @@ from jaxdc.dcg.env import OUTCOMES
 ID = "jaxdc/DCG-v0"
 
 
-@pytest.mark.parametrize("kwargs", [{}, {"render_mode": "ansi", "strategies": ("patrol", "restricted", "double_blind")},
-                                    {"grid_size": 4, "history": 2, "obs_history": False, "render_mode": "rgb_array"}])
-def test_check_env(kwargs):
-    env = gymnasium.make(ID, **kwargs)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the "infinite bound" advisories
-        check_env(env.unwrapped)
-    n = kwargs.get("grid_size", 5)
-    c = 2 if kwargs.get("obs_history") is False else 2 + kwargs.get("history", 10)
-    assert env.observation_space.shape == (n, n, c)
-    assert env.action_space == gymnasium.spaces.Discrete(9)
-
-
 def test_info_and_render():
     env = gymnasium.make(ID, render_mode="ansi", max_steps=5).unwrapped
     obs, _ = env.reset(seed=0)

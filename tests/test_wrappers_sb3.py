@@ -5,19 +5,15 @@ Behind the ``sb3`` marker; ``.ci/run`` sets ``JAXDC_REQUIRE_SB3=1`` so that a mi
 
 from __future__ import annotations
 
-import os
 
 import numpy as np
 import pytest
 
+from sb3_required import require_sb3  # noqa: E402
+
 pytestmark = pytest.mark.sb3
 
-if os.environ.get("JAXDC_REQUIRE_SB3") == "1":
-    import stable_baselines3  # noqa: F401
-    import torch  # noqa: F401
-else:
-    pytest.importorskip("torch")
-    pytest.importorskip("stable_baselines3")
+require_sb3()
 
 from jaxdc.wrappers.sb3 import JaxdcVecEnv, make_sb3_vec_env  # noqa: E402
 

@@ -350,11 +350,7 @@ def _build_dcg(energy, max_steps, chase_tie, dcg_kwargs):
     from jaxdc.dcg.env import DCG
 
     env = DCG(**dcg_kwargs)
-    params = env.make_params(energy=energy, max_steps=max_steps, chase_tie=chase_tie)
-    shape = env.observation_shape(params)
-    low = np.full(shape, -1.0, np.float32)  # agent planes: -1 at the opponent, the energy (>= 0) at the collector
-    low[..., 0] = 0.0  # the item plane
-    return env, params, spaces.Box(low=low, high=np.inf, shape=shape, dtype=np.float32)
+    return env, env.make_params(energy=energy, max_steps=max_steps, chase_tie=chase_tie)
 
 
 def make_dcg(energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight",
@@ -367,13 +363,13 @@ def make_dcg(energy: float = 15.0, max_steps: int = 100, chase_tie: str = "strai
     ``opponent_action`` (``o_t``) and ``strategy`` (index into ``env.strategies``).
     """
     _check_render_mode(render_mode)
-    env, params, space = _build_dcg(energy, max_steps, chase_tie, dcg_kwargs)
-    return JaxToGymnasium(env, params, render_mode=render_mode, observation_space=space)
+    env, params = _build_dcg(energy, max_steps, chase_tie, dcg_kwargs)
+    return JaxToGymnasium(env, params, render_mode=render_mode)
 
 
 def make_dcg_vector(num_envs: int = 1, energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight",
                     render_mode: str | None = None, **dcg_kwargs) -> JaxVectorEnv:
     """The DCG as a :class:`JaxVectorEnv` (vector entry point of ``"jaxdc/DCG-v0"``)."""
     _check_render_mode(render_mode)
-    env, params, space = _build_dcg(energy, max_steps, chase_tie, dcg_kwargs)
-    return JaxVectorEnv(env, num_envs, params, render_mode=render_mode, observation_space=space)
+    env, params = _build_dcg(energy, max_steps, chase_tie, dcg_kwargs)
+    return JaxVectorEnv(env, num_envs, params, render_mode=render_mode)
