@@ -41,7 +41,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: Keys dropped anywhere in a JSON output: timing and versions, which differ from run to run.
 DROPPED_KEYS = frozenset({"seconds", "wall_s", "steps_per_s", "elapsed", "elapsed_s", "duration", "timestamp",
                           "date", "created", "time_s", "version", "versions", "jax_version", "jaxlib_version",
-                          "jaxdc_version", "python_version", "host", "hostname"})
+                          "jaxdc_version", "python_version", "host", "hostname", "provenance"})
 #: Columns dropped from a ``metrics.csv``.
 DROPPED_COLUMNS = ("wall_s", "steps_per_s")
 
