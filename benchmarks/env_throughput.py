@@ -30,7 +30,10 @@ Measures env-steps/s, all in one process so that the ratios are taken side by si
 JAX timings: one warm-up call (compile), then the best of ``--repeats`` calls, each
 ended by ``block_until_ready``. Results are printed as a Markdown table (or, with
 ``--json``, as exactly one JSON object on stdout; progress goes to stderr) and written
-atomically to ``results/benchmarks/env_throughput.{json,md}``.
+to ``results/benchmarks/env_throughput.{json,md}`` (``--out-dir``), which land together.
+Every count flag must be an integer >= 1 (int32), ``--out-dir`` must be writable and the
+largest batch must fit in memory; each is checked before any timing, and a bad value
+exits with status 2 and one ``error:`` line (Ctrl-C: 130).
 """
 
 from __future__ import annotations
@@ -59,7 +62,9 @@ from jaxdc.core.paths import safest_paths  # noqa: E402
 from jaxdc.dcp import navigators  # noqa: E402
 from jaxdc.dcp.env import DCP  # noqa: E402
 from jaxdc.dcp.evaluate import evaluate_heuristic  # noqa: E402
-from jaxdc.io import atomic_write  # noqa: E402
+from jaxdc.cli.args import positive_int  # noqa: E402
+from jaxdc.cli.runner import run as run_cli  # noqa: E402
+from jaxdc.io import atomic_write_set, check_output_folder, json_text  # noqa: E402
 
 DEFAULT_BATCH_SIZES = (1, 64, 1024, 4096, 16384)
 TABLE43_NAVIGATORS = ("safe_reward", "safe_recharge", "safe_both", "safe_neither")
@@ -129,6 +134,22 @@ def make_rollout(env, params, batch: int, steps: int, policy: str, reset_slots: 
         return carry[1], carry[2], carry[3]
 
     return rollout
+
+
+def check_memory(batch_sizes) -> None:
+    """``MemoryError`` (saying to lower ``--batch-sizes``) if the largest batch's states cannot be held.
+
+    A rollout holds the batch's observation and state a few times over (the scan carry, the auto-reset
+    candidates, the step's output); the NumPy batched loop holds its own copy.
+    """
+    from jaxdc.core import memory
+
+    b = max(batch_sizes)
+    per_env = 0
+    for env, params in (make_env("dcp"), make_env("dcg")):
+        obs, state = jax.eval_shape(env.reset, jax.random.PRNGKey(0), params)
+        per_env = max(per_env, memory.tree_bytes(obs) + memory.tree_bytes(state))
+    memory.check_fits(4 * b * per_env, f"a batch of {b} environments", "--batch-sizes")
 
 
 def bench_jax(policy: str, batch: int, steps: int, repeats: int, seed: int = 0, reset_slots=None,
@@ -320,19 +341,18 @@ def markdown(result: dict) -> str:
     return "\n".join(lines)
 
 
-def write_atomic(path: Path, text: str) -> None:
-    atomic_write(path, text)
-
-
 def parse_args(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python benchmarks/env_throughput.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
-    p.add_argument("--batch-sizes", type=int, nargs="+", default=list(DEFAULT_BATCH_SIZES))
-    p.add_argument("--steps", type=int, default=None,
+    p.add_argument("--batch-sizes", type=positive_int("--batch-sizes"), nargs="+", default=list(DEFAULT_BATCH_SIZES))
+    p.add_argument("--steps", type=positive_int("--steps"), default=None,
                    help="scan length T (default: ~2M env-steps per call, 100..2000)")
-    p.add_argument("--repeats", type=int, default=None, help="timed repeats, best taken (default 3)")
-    p.add_argument("--numpy-steps", type=int, default=None, help="NumPy loop steps (default 50,000)")
-    p.add_argument("--episodes", type=int, default=None, help="Table 4.3 episodes (default 10,000)")
+    p.add_argument("--repeats", type=positive_int("--repeats"), default=None,
+                   help="timed repeats, best taken (default 3)")
+    p.add_argument("--numpy-steps", type=positive_int("--numpy-steps"), default=None,
+                   help="NumPy loop steps (default 50,000)")
+    p.add_argument("--episodes", type=positive_int("--episodes"), default=None,
+                   help="Table 4.3 episodes (default 10,000)")
     p.add_argument("--quick", action="store_true",
                    help="tiny settings for smoke tests: 1 repeat, Safe-Reward only at the smallest batch, "
                         "no PRNG subprocess, Table 4.3 with safe_reward x 64 episodes")
@@ -341,8 +361,11 @@ def parse_args(argv=None):
     p.add_argument("--out-dir", type=Path, default=RESULTS_DIR)
     p.add_argument("--_prng-child", dest="prng_child", default=None, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
-    if any(b < 1 for b in args.batch_sizes) or (args.steps is not None and args.steps < 1):
-        p.error("batch sizes and --steps must be >= 1")
+    if not args.prng_child:
+        try:
+            check_output_folder(args.out_dir, "--out-dir")
+        except ValueError as e:
+            p.error(str(e))
     return args
 
 
@@ -352,14 +375,15 @@ def main(argv=None) -> dict:
         jax.config.update("jax_default_prng_impl", args.prng_child)
         b = args.batch_sizes[0]
         row = bench_jax("random", b, steps_for(b, args.steps, False), args.repeats or 3)
-        print(json.dumps(row))
+        print(json_text(row, indent=None))
         return row
+    check_memory(args.batch_sizes)
     result = run(args)
     md = markdown(result)
-    write_atomic(args.out_dir / "env_throughput.json", json.dumps(result, indent=2) + "\n")
-    write_atomic(args.out_dir / "env_throughput.md", md + "\n")
+    atomic_write_set({args.out_dir / "env_throughput.json": json_text(result) + "\n",
+                      args.out_dir / "env_throughput.md": md + "\n"})
     if args.json:
-        print(json.dumps(result))
+        print(json_text(result, indent=None))
         log(md)
     else:
         print(md)
@@ -367,4 +391,4 @@ def main(argv=None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_cli(lambda argv: (main(argv), 0)[1], "python benchmarks/env_throughput.py"))

@@ -277,7 +277,7 @@ def test_cli_table_with_learned_row_and_incr(tmp_path, capsys):
     params = learned_lib.init_params(learned_lib.make_network("linear"), 8, jax.random.PRNGKey(3))
     ckpt = pretrained.save(tmp_path / "lin", params, {"net": "linear", "problem": "dcp", "grid_size": 8,
                                                       "total_reward": 30, "risk": "high", "energy": [8, 16],
-                                                      "max_steps": 1000, "steps": 0, "seed": 3})
+                                                      "max_steps": 1000, "steps": 1, "seed": 3})
     assert cli.main(["--table", "4.9", "--episodes", "200", "--out", str(tmp_path), "--checkpoint", ckpt]) == 0
     data = json.loads((tmp_path / "table_4.9.json").read_text())
     assert list(data["ours"]) == ["safe_reward", "safe_recharge", "safe_both", "safe_neither", "linear"]

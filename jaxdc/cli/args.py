@@ -96,3 +96,8 @@ def seed_list(name: str):
         return seeds
 
     return parse
+
+
+def real(name: str, allow_inf: bool = False):
+    """argparse type: any real number that fits float32 (NaN refused; ``+inf`` too unless ``allow_inf``)."""
+    return lambda text: _number(name, text, allow_inf=allow_inf)

@@ -22,20 +22,31 @@ for the argmax), EQN is epsilon-greedy with ``--epsilon`` 0.05 (section 4.5.5).
 in 4.9, EQN in 4.10) and the incr.% columns: the learner's increment over each
 navigator as a percentage of the navigator's mean. As in the thesis, the ENN of
 Table 4.3 also plays Tables 4.6 and 4.8; Table 4.7 has its own ENN (energy 16/32).
-Results of ``--table`` are written atomically to ``--out`` (default
-``results/dcp``) as ``table_<T>.json`` and ``table_<T>.md``.
+Results of ``--table`` are written to ``--out`` (default ``results/dcp``) as
+``table_<T>.json`` and ``table_<T>.md``, which land together (an interrupted
+run leaves the previous pair or the new one); ``--out`` is checked before any
+episode is played.
+
+Every number is checked before any work: NaN is refused everywhere, ``inf``
+only by ``--energy`` (no constraint) and ``--lpg-init`` (Algorithm 7's literal
+reading); integers fit the int32 counters of the device code, seeds lie in
+``0 .. 2**32 - 1``; a request too large for the machine's memory (``--grid-size``,
+``--episodes``) is refused with what to lower. A statistic with no sample (RPE
+when no episode consumed energy) is ``null`` in the JSON, with the reason in
+``"undefined"``, and a dash in the table. A bad value exits with status 2 and
+one ``error:`` line naming the flag; Ctrl-C exits 130.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import os
 import sys
 
-from jaxdc.cli.args import positive_float, positive_int, unit_interval
+from jaxdc.cli.args import integer, positive_float, positive_int, real, seed, unit_interval
 from jaxdc.core import grid
+from jaxdc.core.energy import MAX_FINITE_ENERGY
 from jaxdc.core.paths import PATH_RISK
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import learned as learned_lib
@@ -48,11 +59,17 @@ from jaxdc.dcp.setting import DEFAULT_SETTING, EnvOptions, Setting, evaluation_s
 from jaxdc.dcp.table_learner import check_learner, shipped_learner
 from jaxdc.dcp.table_results import markdown_table, table_markdown_file, table_payload
 from jaxdc.dcp.tables import TABLES, TableSpec, incr_rows
-from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
+from jaxdc.io import atomic_write_set, check_output_folder, enable_compilation_cache, json_text
+
+PROG = "python -m eval.dcp"
+#: Where ``--table`` writes its results unless ``--out`` is given.
+DEFAULT_OUT = os.path.join("results", "dcp")
+#: The largest ``--total-reward``: the observation counts items in float32, exact up to 2**24.
+MAX_TOTAL_REWARD = 2**24
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m eval.dcp", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0])
     what = p.add_mutually_exclusive_group()
     what.add_argument("--policy", choices=POLICIES + ("optimal",) + NETS, default="safe_reward",
                       help="heuristic policy to evaluate; 'optimal' = exact value iteration (needs --total-reward 1); "
@@ -61,26 +78,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--checkpoint", metavar="PATH",
                    help="learned parameters: a train.dcp run folder or a .msgpack file (jaxdc.pretrained); "
                         "with --table, the table's learned row")
-    p.add_argument("--run-seed", type=int, default=None, metavar="S",
+    p.add_argument("--run-seed", type=seed("--run-seed"), default=None, metavar="S",
                    help="--checkpoint of a train.dcp --seeds run: the seed whose network to evaluate")
     p.add_argument("--greedy", action="store_true",
                    help="learned policy: argmax instead of sampling (EQN: epsilon 0)")
-    p.add_argument("--epsilon", type=unit_interval("--epsilon"), default=EQN_EPSILON,
-                   help="EQN's evaluation epsilon (section 4.5.5: 0.05)")
+    p.add_argument("--epsilon", type=unit_interval("--epsilon"), default=None,
+                   help=f"EQN's evaluation epsilon (section 4.5.5: {EQN_EPSILON}); only where EQN is evaluated")
     p.add_argument("--no-learned", action="store_true", help="--table: navigator rows only")
     p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default=None,
                    help="risk preset (Table 4.2; default high, or the learned network's)")
     p.add_argument("--risk-map", metavar="FILE", help="N x N risk map (.npy or JSON); overrides --risk")
-    p.add_argument("--grid-size", type=positive_int("--grid-size"), default=None,
+    p.add_argument("--grid-size", type=integer("--grid-size", low=2), default=None,
                    help="N (default 8, the map's, or the learned network's)")
-    p.add_argument("--total-reward", type=positive_int("--total-reward"), default=None,
-                   help="default 30, or the learned network's")
-    p.add_argument("--energy", nargs=2, type=positive_float("--energy", allow_inf=True), metavar=("INIT", "MAX"),
+    p.add_argument("--total-reward", type=positive_int("--total-reward", high=MAX_TOTAL_REWARD), default=None,
+                   help="default 30, or the learned network's (at most 2**24: the float32 item counts stay exact)")
+    p.add_argument("--energy", nargs=2, type=positive_float("--energy", allow_inf=True, high=MAX_FINITE_ENERGY),
+                   metavar=("INIT", "MAX"),
                    default=None,
                    help="initial and maximum energy; 'inf inf' for no constraint (default 8 16, or the learned "
                         "network's)")
     p.add_argument("--episodes", type=positive_int("--episodes"), default=10_000)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed("--seed"), default=0)
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None,
                    help="step cap (truncation; default 1000, or the learned network's)")
     # the thesis' ambiguities (docs/ambiguities.md)
@@ -93,10 +111,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--path-risk", choices=PATH_RISK, default="departed")
     p.add_argument("--cf-distance", choices=CF_DISTANCES, default="chebyshev")
     p.add_argument("--shortest-move", choices=grid.SHORTEST_MOVE_RULES, default="diagonal")
-    p.add_argument("--lpg-init", type=float, default=0.0)
+    p.add_argument("--lpg-init", type=real("--lpg-init", allow_inf=True), default=0.0,
+                   help="LPG's initial loss sum (default 0; 'inf' is Algorithm 7 as printed)")
     p.add_argument("--rpe-zero", choices=("exclude", "zero"), default="exclude")
     p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
-    p.add_argument("--out", default=os.path.join("results", "dcp"), help="folder for --table results")
+    p.add_argument("--out", default=None, help=f"folder for --table results (default {DEFAULT_OUT})")
     return p
 
 
@@ -154,6 +173,24 @@ def resolve_learned(args, spec: TableSpec | None = None) -> Learned | None:
         raise ValueError(f"--checkpoint {args.checkpoint}: {e}") from None
 
 
+def check_learned_flags(args, spec: TableSpec | None) -> None:
+    """``ValueError`` for ``--greedy`` or ``--epsilon`` where no network they apply to is evaluated.
+
+    ``--greedy`` needs a learned row or ``--policy enn|linear|cnn|eqn``; ``--epsilon`` needs EQN. A table
+    whose shipped learner is missing (the row is left out with a warning) keeps them without effect.
+    """
+    if spec is not None and spec.learned and not args.no_learned:
+        net = spec.learned[0]
+    else:
+        net = args.policy if spec is None and args.policy in NETS else None
+    if args.greedy and net is None:
+        raise ValueError("--greedy applies to a learned network; none is evaluated here "
+                         f"({'--no-learned' if args.no_learned else 'Table ' + spec.name if spec else args.policy})")
+    if args.epsilon is not None and net != "eqn":
+        raise ValueError(f"--epsilon {args.epsilon:g} is EQN's exploration; it does not apply to "
+                         f"{net or 'the navigators'} (use --policy eqn or --table 4.10)")
+
+
 def settle(args, spec: TableSpec | None, learned: Learned | None, argv=None) -> EvalDCPSettings:
     """The settings of the parsed arguments, given the table and the learned network already resolved.
 
@@ -167,29 +204,32 @@ def settle(args, spec: TableSpec | None, learned: Learned | None, argv=None) -> 
     playing = Playing(episodes=args.episodes, seed=args.seed,
                       planner=PlannerConfig(cf_distance=args.cf_distance, shortest_move=args.shortest_move,
                                             lpg_init=args.lpg_init),
-                      path_risk=args.path_risk, greedy=args.greedy, epsilon=args.epsilon, rpe_zero=args.rpe_zero)
+                      path_risk=args.path_risk, greedy=args.greedy,
+                      epsilon=EQN_EPSILON if args.epsilon is None else args.epsilon, rpe_zero=args.rpe_zero)
     options = EnvOptions(start=args.start, items_on_base=not args.no_items_on_base, energy_metric=args.energy_metric,
                          idle_terminates=not args.no_idle_stop, item_order=args.item_order)
     return EvalDCPSettings(
         table=spec, policies=table_policies(spec, learned) if spec else (args.policy,), learned=learned,
-        setting=setting, options=options, playing=playing, json=args.json, out=args.out,
-        command="python -m eval.dcp " + " ".join(argv if argv is not None else sys.argv[1:]))
+        setting=setting, options=options, playing=playing, json=args.json, out=args.out or DEFAULT_OUT,
+        command=PROG + " " + " ".join(argv if argv is not None else sys.argv[1:]))
 
 
 def write_table(settings: EvalDCPSettings, rows: dict, incr: dict, table: str) -> str:
-    """Write ``table_<T>.json`` and ``table_<T>.md`` into ``settings.out``; the JSON's path."""
+    """Write ``table_<T>.json`` (strict JSON) and ``table_<T>.md`` into ``settings.out``, landing together;
+    the JSON's path."""
     spec = settings.table
     path = os.path.join(settings.out, f"table_{spec.name}.json")
-    atomic_write_json(path, table_payload(spec, settings.command, rows, incr, settings.learned))
-    atomic_write(os.path.join(settings.out, f"table_{spec.name}.md"),
-                 table_markdown_file(spec, settings.command, table))
+    payload = json_text(table_payload(spec, settings.command, rows, incr, settings.learned)) + "\n"
+    atomic_write_set({path: payload,
+                      os.path.join(settings.out, f"table_{spec.name}.md"):
+                          table_markdown_file(spec, settings.command, table)})
     return path
 
 
 def main(argv=None) -> int:
+    """Run the command line; the exit status (a bad flag value exits 2 through argparse, with one error line)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    enable_compilation_cache()
     spec = TABLES[args.table] if args.table else None
     if spec and args.risk_map:
         parser.error("--table runs the thesis' own setting; it cannot take --risk-map")
@@ -198,14 +238,26 @@ def main(argv=None) -> int:
                                 ("--energy", args.energy)) if v is not None]
         if given:
             parser.error(f"--table runs the thesis' own setting; it cannot take {', '.join(given)}")
+    else:
+        unused = [f for f, v in (("--out", args.out is not None), ("--no-learned", args.no_learned)) if v]
+        if unused:
+            parser.error(f"{' and '.join(unused)} appl{'y' if len(unused) > 1 else 'ies'} only to --table; "
+                         f"--policy {args.policy} evaluates one policy and writes no files")
 
     def progress(name, s):
         if not args.json:
-            print(f"  {name:14s} reward {s['reward']['mean']:.2f}  ({s['seconds']:.1f} s)", file=sys.stderr)
+            print(f"  {name:14s} reward {_mean(s['reward'], 2)}  ({s['seconds']:.1f} s)", file=sys.stderr)
 
     try:
         if args.energy is not None:
-            dcp_env.check_energy(args.energy)
+            try:
+                dcp_env.check_energy(args.energy)
+            except (TypeError, ValueError) as e:
+                raise ValueError(f"--energy {args.energy[0]:g} {args.energy[1]:g}: {e}") from None
+        if spec:
+            check_output_folder(args.out or DEFAULT_OUT, "--out")
+        check_learned_flags(args, spec)
+        enable_compilation_cache()
         learned = resolve_learned(args, spec)
         if not args.json:
             what = f"Table {spec.name}: {spec.caption}" if spec else f"policy {args.policy}"
@@ -215,9 +267,14 @@ def main(argv=None) -> int:
         settings = settle(args, spec, learned, argv)
         rows = evaluate_rows(settings.policies, settings.setting, settings.options, settings.playing,
                              settings.learned, progress)
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, MemoryError) as e:
         parser.error(str(e))
     return show(settings, rows)
+
+
+def _mean(stat: dict, digits: int) -> str:
+    """A statistic's mean for a progress line; a dash when it is undefined (``None``)."""
+    return "—" if stat["mean"] is None else f"{stat['mean']:.{digits}f}"
 
 
 def show(settings: EvalDCPSettings, rows: dict) -> int:
@@ -229,7 +286,7 @@ def show(settings: EvalDCPSettings, rows: dict) -> int:
     if spec:
         path = write_table(settings, rows, incr, table)
     if settings.json:
-        print(json.dumps(rows if spec else rows[settings.policies[0]]))
+        print(json_text(rows if spec else rows[settings.policies[0]], indent=None))
     else:
         print(table)
         if spec:

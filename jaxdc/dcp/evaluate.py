@@ -10,7 +10,6 @@ final states into the thesis' columns: reward, energy and reward per energy
 from __future__ import annotations
 
 import functools
-import math
 from typing import NamedTuple
 
 import jax
@@ -18,13 +17,11 @@ import numpy as np
 
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
+from jaxdc.core.stats import RPE_ZERO, episode_summary  # noqa: F401  (RPE_ZERO: the public name)
 from jaxdc.core.validate import check_positive_int
 from jaxdc.dcp import navigators
 from jaxdc.dcp.env import DCP, OUTCOMES, EnvParams
 from jaxdc.dcp.planners import PlannerConfig
-
-#: How RPE treats an episode that consumed no energy (footnote 4 of Table 4.3 is silent).
-RPE_ZERO = ("exclude", "zero")
 
 
 def heuristic_policy(name: str, table, cfg: PlannerConfig = PlannerConfig()):
@@ -125,33 +122,13 @@ def evaluate_optimal(env: DCP, params: EnvParams, key, episodes: int = 10_000) -
 
 
 def summarize(final_states, rpe_zero: str = "exclude") -> dict:
-    """Mean/SD of reward, energy and RPE over episodes, plus outcome counts.
+    """Mean/SD of reward, energy, RPE and steps over episodes, plus outcome counts.
 
     RPE is the mean of per-episode ``reward / energy`` (footnote 4: "Reward
     per energy is also an average over 10,000 runs"). Episodes that used no
     energy are left out (``rpe_zero="exclude"``) or count as RPE 0
-    (``"zero"``). SDs are population SDs (``ddof=0``).
+    (``"zero"``). SDs are population SDs (``ddof=0``). A statistic with no
+    sample (RPE when no episode used energy) is ``{"mean": None, "sd": None,
+    "undefined": reason}`` (:func:`jaxdc.core.stats.mean_sd`), never NaN.
     """
-    if rpe_zero not in RPE_ZERO:
-        raise ValueError(f"rpe_zero must be one of {RPE_ZERO}, got {rpe_zero!r}")
-    reward = np.asarray(final_states.ep_reward, np.float64)
-    energy = np.asarray(final_states.ep_energy, np.float64)
-    outcome = np.asarray(final_states.outcome)
-    used = energy > 0
-    rpe = np.where(used, reward / np.where(used, energy, 1.0), 0.0)
-    if rpe_zero == "exclude":
-        rpe = rpe[used]
-
-    def stats(x):
-        if x.size == 0:
-            return {"mean": math.nan, "sd": math.nan}
-        return {"mean": float(x.mean()), "sd": float(x.std())}
-
-    return {
-        "reward": stats(reward),
-        "energy": stats(energy),
-        "rpe": stats(rpe),
-        "episodes": int(reward.size),
-        "outcomes": {name: int((outcome == i).sum()) for i, name in enumerate(OUTCOMES) if name != "running"},
-        "steps": stats(np.asarray(final_states.time, np.float64)),
-    }
+    return episode_summary(final_states, OUTCOMES, rpe_zero)

@@ -9,9 +9,10 @@ A learned policy comes from one of three places:
 
 :func:`load` returns a :class:`Learned`: the network, its parameters and the
 setting it was trained in (the metadata), whatever the source. Every source is
-checked: a missing or damaged file, another problem or network, or parameters
-whose shapes do not fit the network on the requested grid raise a
-``ValueError`` that names the problem.
+checked: a missing or damaged file, another problem or network, parameters
+whose shapes do not fit the network on the requested grid, or parameters that
+hold NaN or infinity (a diverged training run) raise a ``ValueError`` that
+names the file and the problem.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import dataclasses
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from jaxdc import pretrained
 from jaxdc.core.tree_check import check_like
@@ -66,9 +68,26 @@ def init_params(net, grid_size: int, key=None):
 
 
 def check_params(net_name: str, net, params, grid_size: int, source: str):
-    """``params`` as float32 if it has exactly the structure and shapes of ``net`` on ``grid_size``, else ``ValueError``."""
-    return check_like(init_params(net, grid_size), params, source, f"a {net_name} network on a {grid_size}x{grid_size} grid",
-                      "was it trained on another grid size?")
+    """``params`` as float32 if it has exactly the structure and shapes of ``net`` on ``grid_size`` and every value
+    is finite, else ``ValueError`` naming ``source``."""
+    params = check_like(init_params(net, grid_size), params, source,
+                        f"a {net_name} network on a {grid_size}x{grid_size} grid", "was it trained on another grid size?")
+    check_finite_params(params, source)
+    return params
+
+
+def check_finite_params(params, source: str) -> None:
+    """``ValueError`` naming ``source`` and the first parameter that holds NaN or infinity (a diverged network)."""
+    for path, leaf in jax.tree_util.tree_flatten_with_path(params)[0]:
+        if isinstance(leaf, jax.core.Tracer):  # inside a jit: checked where the values are known
+            continue
+        x = np.asarray(leaf)
+        bad = ~np.isfinite(x)
+        if bad.any():
+            key = jax.tree_util.keystr(path)
+            kinds = " and ".join(k for k, m in (("NaN", np.isnan(x)), ("infinity", np.isinf(x))) if m.any())
+            raise ValueError(f"{source}: parameter {key} holds {kinds} ({int(bad.sum())} of {x.size} values); "
+                             "the network diverged in training and cannot be evaluated")
 
 
 def _grid_checker(grid_size: int | None):

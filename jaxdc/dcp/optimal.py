@@ -109,6 +109,21 @@ def _q_values(v: np.ndarray, succ: np.ndarray, rho: np.ndarray, gamma: float) ->
     return q
 
 
+#: Bytes per (cell, energy, item cell) state the solver holds at once: the Q values of the 9 actions and
+#: about six value-sized float64 arrays (values, the update, the continuation, its survival-weighted copy).
+SOLVER_BYTES_PER_STATE = 8 * (9 + 6)
+
+
+def check_solver_fits(grid_size: int, max_energy: int) -> None:
+    """``MemoryError`` (what to lower) if the solver's arrays for this grid and energy cannot be held."""
+    from jaxdc.core import memory
+
+    cells = grid_size * grid_size
+    memory.check_fits(SOLVER_BYTES_PER_STATE * cells * cells * (max_energy + 1),
+                      f"the exact single-item solver on a {grid_size}x{grid_size} grid with maximum energy "
+                      f"{max_energy}", "the grid size or the maximum energy")
+
+
 def solve_single_item(
     risk,
     max_energy,
@@ -134,6 +149,9 @@ def solve_single_item(
       tol: stopping threshold on the max change per iteration.
       max_iter: raises ``RuntimeError`` if not converged by then.
       grid_size: the grid size of a preset ``risk`` (ignored for an array).
+
+    A grid and energy whose arrays the machine cannot hold raise ``MemoryError``
+    before any is allocated (:func:`check_solver_fits`).
     """
     size = grid_size if isinstance(risk, str) else np.shape(risk)[0]
     rho = np.asarray(grid.as_risk_map(risk, size), np.float64)
@@ -148,6 +166,7 @@ def solve_single_item(
         raise ValueError(f"tol must be > 0, got {tol}")
     n = rho.shape[0]
     cells = n * n
+    check_solver_fits(n, big_e)
     succ = _successors(n)
     v = np.zeros((cells, big_e + 1, cells))
     residual = math.inf

@@ -26,6 +26,7 @@ from flax import struct
 from jaxdc.core import grid
 from jaxdc.core.paths import PathTable
 from jaxdc.core.tour_criteria import APPEND_CRITERIA, append_scores
+from jaxdc.core.validate import check_float
 
 CF_DISTANCES = ("chebyshev", "manhattan")
 
@@ -41,9 +42,10 @@ class PlannerConfig:
         or ``"order"`` (first action in the thesis' order); see
         :func:`jaxdc.core.grid.shortest_move`.
       lpg_init: LPG's initial loss sum; Algorithm 7 writes ``+inf`` (every
-        item ties, so the first item wins), read as a typo for 0.
+        item ties, so the first item wins), read as a typo for 0. Any real
+        number or ``+inf``; NaN and ``-inf`` are refused.
       tie_rtol: scores within this relative tolerance of the best count as
-        tied, and ties go to the first item in row-major order.
+        tied, and ties go to the first item in row-major order (finite, >= 0).
     """
 
     cf_distance: str = "chebyshev"
@@ -58,8 +60,8 @@ class PlannerConfig:
             raise ValueError(
                 f"shortest_move must be one of {grid.SHORTEST_MOVE_RULES}, got {self.shortest_move!r}"
             )
-        if not self.tie_rtol >= 0:
-            raise ValueError(f"tie_rtol must be >= 0, got {self.tie_rtol}")
+        check_float("lpg_init", self.lpg_init, allow_inf=True)
+        check_float("tie_rtol", self.tie_rtol, low=0.0)
 
 
 @struct.dataclass

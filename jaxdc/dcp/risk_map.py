@@ -3,28 +3,68 @@
 from __future__ import annotations
 
 import json
+import numbers
 import os
 
 import numpy as np
 
 from jaxdc.core import grid
+from jaxdc.core.validate import FLOAT32_MAX
+
+
+def _refuse_constant(name: str, path: str):
+    def refuse(constant):
+        raise ValueError(f"{name} {path!r}: {constant} is not a risk in [0, 1] (NaN and Infinity are refused)")
+    return refuse
+
+
+def _json_cells(value, name: str, path: str):
+    """``value`` (a JSON nested list) unchanged if every cell is a number; else a ``ValueError`` naming the cell."""
+    def walk(v, where):
+        if isinstance(v, list):
+            for i, x in enumerate(v):
+                walk(x, where + (i,))
+        elif isinstance(v, bool) or not isinstance(v, numbers.Real):
+            cell = ", ".join(map(str, where))
+            kind = "a boolean" if isinstance(v, bool) else f"not a number ({type(v).__name__})"
+            raise ValueError(f"{name} {path!r}: cell ({cell}) is {kind}: {json.dumps(v)}; "
+                             "risks must be numbers in [0, 1]")
+        elif abs(v) > FLOAT32_MAX:
+            cell = ", ".join(map(str, where))
+            raise ValueError(f"{name} {path!r}: cell ({cell}) is {v:g}; risks must be finite numbers in [0, 1]")
+    if not isinstance(value, list):
+        raise ValueError(f"{name} {path!r}: must hold an N x N nested list of numbers, got {type(value).__name__}")
+    walk(value, ())
+    return value
 
 
 def load_risk_map(path: str, name: str = "risk map") -> np.ndarray:
-    """The validated risk map stored at ``path`` (``.npy``, else a JSON nested list).
+    """The validated risk map stored at ``path`` (``.npy``, else a JSON nested list), as float32.
 
-    A missing file, an unreadable one or a map that :func:`jaxdc.core.grid.validate_risk_map`
-    rejects raises a ``ValueError`` that starts with ``name`` (a command line passes its flag).
+    The file's values are checked as stored, before any conversion: a boolean
+    array or a JSON ``true``/``false``, text, NaN or Infinity, a value outside
+    ``[0, 1]``, a non-square map or a base cell with risk are refused
+    (:func:`jaxdc.core.grid.validate_risk_map`). A missing file, an unreadable
+    one or a refused map raises a ``ValueError`` that starts with ``name`` (a
+    command line passes its flag) and names the file.
     """
     if not os.path.exists(path):
         raise ValueError(f"{name}: no such file {path!r}")
+    if os.path.isdir(path):
+        raise ValueError(f"{name}: {path!r} is a folder, not a .npy or JSON file")
     try:
         if path.endswith(".npy"):
-            arr = np.load(path)
+            arr = np.load(path, allow_pickle=False)
+            if not isinstance(arr, np.ndarray):
+                raise ValueError("not a single array")
+            if arr.dtype.kind not in "biuf":
+                raise ValueError(f"{name} {path!r}: must hold real numbers, got dtype {arr.dtype}")
         else:
             with open(path) as f:
-                arr = np.asarray(json.load(f), dtype=np.float32)
-    except (ValueError, OSError) as e:
+                arr = _json_cells(json.load(f, parse_constant=_refuse_constant(name, path)), name, path)
+    except (ValueError, OSError, EOFError, UnicodeDecodeError) as e:
+        if str(e).startswith(name):
+            raise ValueError(str(e)) from None
         raise ValueError(f"{name}: cannot read {path!r} as .npy or JSON: {e}") from None
     try:
         return grid.validate_risk_map(arr)

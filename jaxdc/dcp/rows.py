@@ -14,6 +14,7 @@ from typing import Callable
 
 import jax
 
+from jaxdc.core import memory
 from jaxdc.dcp.evaluate import evaluate_heuristic, evaluate_learned, evaluate_optimal, summarize
 from jaxdc.dcp.learned import EQN_EPSILON, NETS
 from jaxdc.dcp.planners import PlannerConfig
@@ -61,9 +62,26 @@ def evaluate_row(name: str, setting: Setting, options: EnvOptions, playing: Play
     return row
 
 
+#: Bytes per dropped reward unit and episode while the episodes' items are drawn (the unit draws, their
+#: indices and masks; :func:`jaxdc.core.sampling.drop_units`).
+DROP_BYTES_PER_UNIT = 32
+
+
+def check_drop_fits(setting: Setting, playing: Playing) -> None:
+    """``MemoryError`` if drawing ``total_reward`` units for every episode at once cannot be held (what to lower)."""
+    memory.check_fits(DROP_BYTES_PER_UNIT * setting.total_reward * playing.episodes,
+                      f"dropping {setting.total_reward} reward units in each of {playing.episodes} episodes",
+                      "the total reward or the number of episodes")
+
+
 def evaluate_rows(policies, setting: Setting, options: EnvOptions, playing: Playing, learned=None,
                   progress: Callable[[str, dict], None] | None = None) -> dict:
-    """``{policy: summary}`` of each of ``policies`` in order; ``progress(name, summary)`` after each row."""
+    """``{policy: summary}`` of each of ``policies`` in order; ``progress(name, summary)`` after each row.
+
+    A request too large for the machine's memory (:func:`check_drop_fits`, and the checks of
+    :mod:`jaxdc.core.memory` inside the evaluation) raises ``MemoryError`` before the first row is played.
+    """
+    check_drop_fits(setting, playing)
     out = {}
     for name in policies:
         out[name] = evaluate_row(name, setting, options, playing, learned)

@@ -15,11 +15,15 @@ from jaxdc.dcp.tables import COLUMNS
 
 
 def _fmt(x, digits):
-    return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}f}"
+    """``x`` with ``digits`` decimals; a dash for an undefined value (``None``, NaN or infinite)."""
+    return "—" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.{digits}f}"
 
 
 def markdown_table(spec, rows: dict, incr: dict | None = None) -> str:
-    """Mean ± SD of reward, energy and RPE per row (thesis beside ours; ``spec=None``: ours only), then Incr.%."""
+    """Mean ± SD of reward, energy and RPE per row (thesis beside ours; ``spec=None``: ours only), then Incr.%.
+
+    An undefined statistic (mean ``None``: RPE when no episode consumed energy) is a dash.
+    """
     head = ("| policy | reward (thesis) | reward (ours) | energy (thesis) | energy (ours) | RPE (thesis) | RPE (ours) "
             "| ours: outcomes |")
     lines = [head, "|" + "---|" * 8]
@@ -29,7 +33,8 @@ def markdown_table(spec, rows: dict, incr: dict | None = None) -> str:
         for col, i in COLUMNS:
             d = 3 if col == "rpe" else 2
             cells.append(f"{_fmt(th[i], d)} ± {_fmt(th[i + 1], d)}" if th[i] is not None else "—")
-            cells.append(f"{_fmt(s[col]['mean'], d)} ± {_fmt(s[col]['sd'], d)}")
+            cells.append(f"{_fmt(s[col]['mean'], d)} ± {_fmt(s[col]['sd'], d)}" if s[col]["mean"] is not None
+                         else "—")
         cells.append(", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v))
         lines.append("| " + " | ".join(cells) + " |")
     if incr:

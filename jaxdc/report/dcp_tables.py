@@ -13,18 +13,23 @@ from __future__ import annotations
 import math
 
 
+def _finite(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
 def _se_delta(ours, thesis, sd, episodes):
-    if thesis is None or sd in (None, 0) or ours is None or math.isnan(ours):
+    if not (_finite(ours) and _finite(thesis) and _finite(sd) and sd != 0 and _finite(episodes) and episodes > 0):
         return "—"
     return f"{(ours - thesis) / (sd / math.sqrt(episodes)):+.1f}"
 
 
 def _f(x, d):
-    return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{d}f}"
+    """``x`` with ``d`` decimals; a dash for an undefined value (``None``, NaN, infinity)."""
+    return f"{x:.{d}f}" if _finite(x) else "—"
 
 
 def _pm(mean, sd, d):
-    return "—" if mean is None else f"{_f(mean, d)} ± {_f(sd, d)}"
+    return f"{_f(mean, d)} ± {_f(sd, d)}" if _finite(mean) else "—"
 
 
 def dcp_table(payload: dict) -> str:

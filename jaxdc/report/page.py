@@ -5,6 +5,7 @@ from __future__ import annotations
 import glob
 import json
 import os
+import re
 
 from jaxdc.report.copied import copied_sections
 from jaxdc.report.dcp_tables import dcp_table
@@ -23,20 +24,60 @@ for Tables 4.9 and 4.10 in the setting of Table 4.3, and its own Safe-Reward rew
 """
 
 
+#: A DCP table's results file: ``table_<T>.json`` with ``T`` a table number (``4.3``); other names are ignored.
+TABLE_FILE = re.compile(r"table_(\d+(?:\.\d+)*)\.json")
+
+
+def _refuse_constant(path: str):
+    def refuse(constant):
+        raise ValueError(f"{path}: holds {constant}, which strict JSON does not have")
+    return refuse
+
+
+def read_table(path: str) -> dict:
+    """The results of one ``table_<T>.json``, strict JSON; ``ValueError`` naming the file if it is unreadable."""
+    try:
+        with open(path) as f:
+            return json.load(f, parse_constant=_refuse_constant(path))
+    except (OSError, UnicodeDecodeError) as e:
+        raise ValueError(f"{path}: cannot read it: {e}") from None
+    except ValueError as e:
+        if str(e).startswith(path):
+            raise
+        raise ValueError(f"{path}: not valid JSON ({e}); rerun the python -m eval.dcp --table command "
+                         "that wrote it") from None
+
+
+def table_files(results_dir: str) -> list[str]:
+    """The ``table_<T>.json`` files of ``results_dir/dcp``, in table order."""
+    found = []
+    for path in glob.glob(os.path.join(results_dir, "dcp", "table_*.json")):
+        m = TABLE_FILE.fullmatch(os.path.basename(path))
+        if m:
+            found.append((tuple(int(x) for x in m.group(1).split(".")), path))
+    return [path for _, path in sorted(found)]
+
+
 def build_page(results_dir: str, notes_path: str | None, out_dir: str = "docs") -> str:
-    """The page: header, the DCP tables of ``results_dir/dcp``, the notes at ``notes_path`` (if it exists), the
-    copied sections; links are relative to ``out_dir``. ``FileNotFoundError`` when there is no DCP table."""
-    files = sorted(glob.glob(os.path.join(results_dir, "dcp", "table_*.json")),
-                   key=lambda p: tuple(int(x) for x in os.path.basename(p)[6:-5].split(".")))
+    """The page: header, the DCP tables of ``results_dir/dcp``, the notes at ``notes_path`` (``None``: none), the
+    copied sections; links are relative to ``out_dir``. ``FileNotFoundError`` when there is no DCP table or the
+    notes file is missing; ``ValueError`` naming the file when a table file is damaged."""
+    files = table_files(results_dir)
     if not files:
         raise FileNotFoundError(
             f"no DCP tables in {results_dir}/dcp: run e.g. `python -m eval.dcp --table 4.3` first"
         )
+    if notes_path and not os.path.isfile(notes_path):
+        raise FileNotFoundError(f"--notes {notes_path!r}: no such file")
     parts = [HEADER, "## DCP (chapter 4): Tables 4.1 and 4.3-4.10, navigators and learners", ""]
     for path in files:
-        with open(path) as f:
-            parts += [dcp_table(json.load(f)), ""]
-    if notes_path and os.path.exists(notes_path):
+        payload = read_table(path)
+        try:
+            parts += [dcp_table(payload), ""]
+        except (KeyError, TypeError, IndexError, AttributeError) as e:
+            raise ValueError(f"{path}: not a table written by python -m eval.dcp --table "
+                             f"(missing or malformed {e}); rerun that command") from None
+    if notes_path:
         with open(notes_path) as f:
             parts += [f.read(), ""]
     parts += copied_sections(results_dir, out_dir)

@@ -1,0 +1,369 @@
+"""Hostile input for the DCP evaluation command line (eval.dcp), the results page (eval.report), the DCP
+library behind them and benchmarks/env_throughput.py.
+
+Every bad value is refused before any work with a non-zero exit and an error naming the flag (or the file),
+the value and the allowed range, without a traceback; no NaN or Infinity reaches a file or stdout; an
+interruption leaves the old files or the complete new set.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import types
+
+import jax
+import numpy as np
+import pytest
+from flax import serialization
+
+from benchmarks import env_throughput
+from jaxdc import pretrained
+from jaxdc.cli import eval_dcp as cli
+from jaxdc.cli import eval_report as report
+from jaxdc.dcp import learned as learned_lib
+from jaxdc.dcp.evaluate import summarize
+from jaxdc.dcp.planners import PlannerConfig
+from jaxdc.dcp.risk_map import load_risk_map
+from jaxdc.dcp.rows import Playing, check_drop_fits
+from jaxdc.dcp.setting import Setting
+from jaxdc.dcp.table_results import markdown_table
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _strict(text):
+    """Parse JSON refusing NaN and Infinity."""
+    def refuse(c):
+        raise AssertionError(f"non-strict JSON constant {c}")
+    return json.loads(text, parse_constant=refuse)
+
+
+def _files(folder):
+    return sorted(os.listdir(folder)) if os.path.isdir(folder) else []
+
+
+def _refused(main, argv, capsys, *needles, code=2):
+    """``main(argv)`` exits ``code`` (argparse's SystemExit or a returned status) with an error naming every
+    one of ``needles`` (case-insensitive), no traceback and nothing on stdout; the error text."""
+    try:
+        rc = main(argv)
+    except SystemExit as e:
+        rc = e.code
+    err = capsys.readouterr()
+    assert rc == code, err
+    assert "Traceback" not in err.err
+    for n in needles:
+        assert n.lower() in err.err.lower(), (n, err.err)
+    assert err.out == ""
+    return err.err
+
+
+# ----------------------------------------------------------------------------- eval.dcp: numeric flags
+
+
+@pytest.mark.parametrize("argv, needles", [
+    (["--lpg-init", "nan"], ("--lpg-init", "nan")),
+    (["--lpg-init=-inf"], ("--lpg-init", "-inf")),
+    (["--energy", "1e40", "1e40"], ("--energy", "1e+40", "16777216")),
+    (["--energy", "nan", "8"], ("--energy", "nan")),
+    (["--energy", "9", "8"], ("--energy", "must not exceed")),
+    (["--energy", "0", "8"], ("--energy", "> 0")),
+    (["--grid-size", "0"], ("--grid-size", ">= 2", "got 0")),
+    (["--grid-size", "1"], ("--grid-size", ">= 2", "got 1")),
+    (["--seed", "99999999999999999999"], ("--seed", "4294967295")),
+    (["--seed", "-1"], ("--seed", ">= 0")),
+    (["--run-seed", "-1"], ("--run-seed", ">= 0")),
+    (["--episodes", "0"], ("--episodes", ">= 1")),
+    (["--episodes", "1000000000000"], ("--episodes", "2147483647")),
+    (["--max-steps", "3000000000"], ("--max-steps", "2147483647")),
+    (["--epsilon", "5"], ("--epsilon", "[0, 1]")),
+    (["--epsilon", "nan"], ("--epsilon", "nan")),
+    (["--total-reward", "2000000000"], ("--total-reward", "16777216")),
+])
+def test_dcp_flag_refused(argv, needles, capsys):
+    _refused(cli.main, argv + ["--json"], capsys, *needles)
+
+
+@pytest.mark.parametrize("argv, needles", [
+    (["--greedy"], ("--greedy", "safe_reward")),
+    (["--epsilon", "0.1"], ("--epsilon", "navigators")),
+    (["--policy", "enn", "--epsilon", "0.1"], ("--epsilon", "enn")),
+    (["--out", "somewhere"], ("--out", "only to --table")),
+    (["--no-learned"], ("--no-learned", "only to --table")),
+    (["--table", "4.8", "--no-learned", "--greedy"], ("--greedy", "--no-learned")),
+])
+def test_dcp_flag_without_effect_refused(argv, needles, capsys, tmp_path):
+    _refused(cli.main, argv + ["--episodes", "5"], capsys, *needles)
+    assert not os.path.exists("somewhere")
+
+
+def test_dcp_grid_too_large_for_memory(capsys, monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**30))
+    _refused(cli.main, ["--grid-size", "200", "--episodes", "50", "--json"], capsys, "200 x 200", "lower")
+
+
+def test_dcp_episodes_too_many_for_memory(capsys, monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**30))
+    _refused(cli.main, ["--episodes", "1000000000", "--json"], capsys, "1000000000 episodes", "lower")
+
+
+def test_dcp_optimal_solver_too_large_for_memory(capsys, monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**30))
+    _refused(cli.main, ["--policy", "optimal", "--total-reward", "1", "--energy", "4", "100000", "--episodes", "5",
+                        "--json"], capsys, "maximum energy 100000", "lower")
+    from jaxdc.dcp.optimal import solve_single_item
+
+    with pytest.raises(MemoryError, match="100x100"):
+        solve_single_item(np.zeros((100, 100), np.float32), 16, 8)
+
+
+def test_dcp_drop_memory_check_api(monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**30))
+    with pytest.raises(MemoryError, match="total reward"):
+        check_drop_fits(Setting(8, 2**24, "high", (8.0, 16.0), 1000), Playing(episodes=10_000))
+
+
+def test_dcp_planner_config_refuses_nan():
+    with pytest.raises(ValueError, match="lpg_init"):
+        PlannerConfig(lpg_init=float("nan"))
+    with pytest.raises(ValueError, match="tie_rtol"):
+        PlannerConfig(tie_rtol=float("inf"))
+    assert PlannerConfig(lpg_init=float("inf")).lpg_init == float("inf")  # Algorithm 7 as printed
+
+
+# ----------------------------------------------------------------------------- eval.dcp: risk-map files
+
+
+def _risk(tmp_path, name, value, cell=(1, 2), npy=True):
+    r = np.full((5, 5), 0.05, np.float32)
+    r[0, 0] = 0
+    path = tmp_path / name
+    if npy:
+        arr = r.astype(object) if value is None else r
+        if isinstance(value, np.ndarray):
+            arr = value
+        elif value is not None:
+            arr = r.copy()
+            arr[cell] = value
+        np.save(path, arr)
+    else:
+        cells = r.tolist()
+        cells[cell[0]][cell[1]] = value
+        path.write_text(json.dumps(cells))  # json.dumps writes NaN for a float nan
+    return str(path)
+
+
+@pytest.mark.parametrize("name, value, npy, needles", [
+    ("bool.npy", np.eye(5, dtype=bool)[::-1], True, ("boolean",)),
+    ("nan.npy", np.nan, True, ("nan", "(1, 2)")),
+    ("complex.npy", np.zeros((5, 5), complex), True, ("complex",)),
+    ("true.json", True, False, ("boolean", "true", "(1, 2)")),
+    ("nan.json", float("nan"), False, ("nan",)),
+    ("inf.json", float("inf"), False, ("infinity",)),
+    ("text.json", "0.5", False, ("not a number", "(1, 2)")),
+    ("huge.json", 1e300, False, ("finite",)),
+])
+def test_dcp_risk_map_refused(tmp_path, capsys, name, value, npy, needles):
+    path = _risk(tmp_path, name, value, npy=npy)
+    _refused(cli.main, ["--risk-map", path, "--episodes", "5", "--json"], capsys, "--risk-map", name, *needles)
+    with pytest.raises(ValueError, match="risk map"):
+        load_risk_map(path)
+
+
+def test_dcp_risk_map_folder_refused(tmp_path, capsys):
+    _refused(cli.main, ["--risk-map", str(tmp_path), "--json"], capsys, "--risk-map", "folder")
+
+
+# ----------------------------------------------------------------------------- eval.dcp: learned networks
+
+
+def _diverged_file(tmp_path, value):
+    params = learned_lib.init_params(learned_lib.make_network("linear"), 8, jax.random.PRNGKey(3))
+    meta = {"net": "linear", "problem": "dcp", "grid_size": 8, "total_reward": 30, "risk": "high",
+            "energy": [8, 16], "max_steps": 1000, "steps": 1, "seed": 3}
+    blob = pretrained.save(tmp_path / "lin", params, meta)  # save refuses NaN: damage the file afterwards
+    tree = jax.tree_util.tree_map(lambda x: np.asarray(x).copy(), params)
+    jax.tree_util.tree_leaves(tree)[-1].flat[0] = value
+    with open(blob, "wb") as f:
+        f.write(serialization.msgpack_serialize(serialization.to_state_dict(tree)))
+    return blob
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_dcp_diverged_network_file_refused(tmp_path, capsys, value):
+    blob = _diverged_file(tmp_path, value)
+    out = tmp_path / "out"
+    _refused(cli.main, ["--policy", "linear", "--checkpoint", blob, "--episodes", "5", "--json"], capsys, blob,
+             "nan or inf")
+    _refused(cli.main, ["--table", "4.9", "--checkpoint", blob, "--episodes", "5", "--out", str(out)], capsys, blob)
+    assert not out.exists()
+
+
+def test_dcp_non_finite_params_api():
+    net = learned_lib.make_network("linear")
+    params = jax.tree_util.tree_map(lambda x: np.asarray(x) * np.nan, learned_lib.init_params(net, 8))
+    with pytest.raises(ValueError, match="in memory.*NaN"):
+        learned_lib.check_params("linear", net, params, 8, "in memory")
+
+
+# ----------------------------------------------------------------------------- eval.dcp: output locations
+
+
+def test_dcp_out_under_a_file_refused_before_work(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    t0 = time.perf_counter()
+    _refused(cli.main, ["--table", "4.8", "--no-learned", "--out", str(blocker / "sub")], capsys, "--out", "is a file")
+    _refused(cli.main, ["--table", "4.8", "--no-learned", "--out", str(blocker)], capsys, "--out", "not a folder")
+    assert time.perf_counter() - t0 < 5  # nothing was evaluated
+    assert _files(tmp_path) == ["file"]
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+def test_dcp_out_read_only_refused(tmp_path, capsys):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        _refused(cli.main, ["--table", "4.8", "--no-learned", "--out", str(ro / "x")], capsys, "--out", "writable")
+    finally:
+        ro.chmod(0o755)
+
+
+# ----------------------------------------------------------------------------- eval.dcp: undefined statistics
+
+
+def test_dcp_undefined_rpe_is_null_and_a_dash(tmp_path, capsys):
+    path = _risk(tmp_path, "m5.npy", 0.05)
+    argv = ["--policy", "safe_neither", "--risk-map", path, "--energy", "1", "1", "--start", "base",
+            "--episodes", "50"]
+    assert cli.main(argv + ["--json"]) == 0
+    out = capsys.readouterr().out
+    obj = _strict(out)
+    assert obj["rpe"] == {"mean": None, "sd": None, "undefined": "no episode consumed energy"}
+    assert cli.main(argv) == 0
+    table = capsys.readouterr().out
+    assert "nan" not in table.lower() and "| — | — |" in table
+
+
+def test_dcp_summarize_empty_rpe_api():
+    final = types.SimpleNamespace(ep_reward=np.array([1.0, 0.0]), ep_energy=np.zeros(2), outcome=np.array([4, 4]),
+                                  time=np.array([1, 2]))
+    s = summarize(final)
+    assert s["rpe"]["mean"] is None and s["rpe"]["undefined"]
+    _strict(json.dumps(s))
+    assert "—" in markdown_table(None, {"p": s})
+
+
+# ----------------------------------------------------------------------------- eval.dcp: subprocesses
+
+
+def test_dcp_subprocess_error_is_one_line():
+    r = subprocess.run([sys.executable, "-m", "eval.dcp", "--lpg-init", "nan"], cwd=ROOT, capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "--lpg-init" in r.stderr
+    assert r.stderr.strip().splitlines()[-1].startswith("python -m eval.dcp: error:")
+
+
+def test_dcp_sigint_exits_130_and_leaves_no_partial_set(tmp_path):
+    out = tmp_path / "out"
+    p = subprocess.Popen([sys.executable, "-m", "eval.dcp", "--table", "4.3", "--no-learned", "--episodes",
+                          "500000", "--out", str(out)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, env=dict(os.environ, JAXDC_NO_CACHE="1"))
+    first = p.stderr.readline()  # "Evaluating Table 4.3 ...": the modules are loaded, the work starts
+    assert first.startswith("Evaluating"), first
+    time.sleep(3)
+    p.send_signal(signal.SIGINT)
+    stdout, stderr = p.communicate(timeout=60)
+    assert p.returncode == 130, stderr
+    assert "Traceback" not in stderr
+    assert stderr.strip().splitlines()[-1] == "python -m eval.dcp: interrupted"
+    assert _files(out) in ([], ["table_4.3.json", "table_4.3.md"])
+
+
+# ----------------------------------------------------------------------------- eval.report
+
+
+def _table(tmp_path, text):
+    d = tmp_path / "results" / "dcp"
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "table_4.8.json").write_text(text)
+    return str(tmp_path / "results")
+
+
+GOOD = json.dumps({"table": "4.8", "caption": "c", "command": "python -m eval.dcp --table 4.8", "thesis": {},
+                   "ours": {"p": {"reward": {"mean": 1.0, "sd": 0.0}, "energy": {"mean": 0.0, "sd": 0.0},
+                                  "rpe": {"mean": None, "sd": None, "undefined": "no episode consumed energy"},
+                                  "episodes": 5}}})
+
+
+def test_report_missing_notes_refused(tmp_path, capsys):
+    res = _table(tmp_path, GOOD)
+    out = tmp_path / "page.md"
+    _refused(report.main, ["--results", res, "--out", str(out), "--notes", str(tmp_path / "missing.md")], capsys,
+             "--notes", "missing.md")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("where, needles", [("file/page.md", ("--out", "is a file")), ("", ("--out", "folder"))])
+def test_report_out_checked_first(tmp_path, capsys, where, needles):
+    res = _table(tmp_path, GOOD)
+    (tmp_path / "file").write_text("x")
+    _refused(report.main, ["--results", res, "--out", str(tmp_path / where), "--notes", "none"], capsys, *needles)
+    assert (tmp_path / "file").read_text() == "x"
+
+
+@pytest.mark.parametrize("text, needles", [
+    ('{"table": "4.8", "ours": {"p": {"reward": {"mean": NaN}}}}', ("table_4.8.json", "NaN")),
+    ('{"table": "4.8", "ours": {"p": {"reward": {"mean": Infinity}}}}', ("table_4.8.json", "Infinity")),
+    ('{"table": "4.8", ', ("table_4.8.json", "not valid JSON")),
+    ('{"table": "4.8"}', ("table_4.8.json", "not a table")),
+])
+def test_report_damaged_table_refused(tmp_path, capsys, text, needles):
+    res = _table(tmp_path, text)
+    out = tmp_path / "page.md"
+    _refused(report.main, ["--results", res, "--out", str(out), "--notes", "none"], capsys, *needles)
+    assert not out.exists()
+
+
+def test_report_results_is_a_file(tmp_path, capsys):
+    (tmp_path / "r").write_text("x")
+    _refused(report.main, ["--results", str(tmp_path / "r"), "--out", str(tmp_path / "p.md")], capsys, "--results")
+
+
+def test_report_undefined_rpe_is_a_dash(tmp_path, capsys):
+    res = _table(tmp_path, GOOD)
+    out = tmp_path / "page.md"
+    assert report.main(["--results", res, "--out", str(out), "--notes", "none"]) == 0
+    page = out.read_text()
+    assert "| p | — | 1.00 ± 0.00 | — | — | 0.00 ± 0.00 | — | — |" in page and "nan" not in page.lower()
+
+
+# ----------------------------------------------------------------------------- benchmarks/env_throughput.py
+
+
+@pytest.mark.parametrize("argv, flag", [
+    (["--numpy-steps", "0"], "--numpy-steps"), (["--episodes", "0"], "--episodes"), (["--repeats", "0"], "--repeats"),
+    (["--steps", "0"], "--steps"), (["--batch-sizes", "4", "0"], "--batch-sizes"),
+    (["--repeats", "3000000000"], "--repeats"),
+])
+def test_benchmark_count_flag_refused(tmp_path, capsys, argv, flag):
+    _refused(env_throughput.main, argv + ["--quick", "--out-dir", str(tmp_path / "o")], capsys, flag)
+    assert not (tmp_path / "o").exists()
+
+
+def test_benchmark_out_dir_checked_first(tmp_path, capsys):
+    (tmp_path / "f").write_text("x")
+    _refused(env_throughput.main, ["--quick", "--out-dir", str(tmp_path / "f")], capsys, "--out-dir", "not a folder")
+
+
+def test_benchmark_batch_too_large_for_memory(tmp_path, monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**30))
+    with pytest.raises(MemoryError, match="--batch-sizes"):
+        env_throughput.main(["--quick", "--batch-sizes", "2000000000", "--out-dir", str(tmp_path / "o")])
+    assert not (tmp_path / "o").exists()
