@@ -62,6 +62,8 @@ import time
 
 import numpy as np
 
+from jaxdc.io import json_text
+
 # ----------------------------------------------------------------------------- NumPy reference
 
 
@@ -197,7 +199,7 @@ def nc_cache_compare(graphs, nodes, alphas, builders, rounds=("cached", "uncache
             if mode in members:
                 assert (members[mode] == m).all()
             members[mode] = m
-            print(json.dumps({"builder": b, tag: dt}), file=sys.stderr)
+            print(json_text({"builder": b, tag: dt}, indent=None), file=sys.stderr)
         ms = list(members.values())
         row["identical_clusters"] = bool(all((x == ms[0]).all() for x in ms[1:]))
         rows.append(row)
@@ -258,7 +260,8 @@ def nc_against(rev, graphs, nodes, alphas, builders):
         row = rows[b]
         members[b, side] = z["member"]
         row[f"{side}_first_s"], row[f"{side}_warm_s"] = float(z["first"]), float(z["warm"])
-        print(json.dumps({"builder": b, side: [row[f"{side}_first_s"], row[f"{side}_warm_s"]]}), file=sys.stderr)
+        print(json_text({"builder": b, side: [row[f"{side}_first_s"], row[f"{side}_warm_s"]]}, indent=None),
+              file=sys.stderr)
         if side == "new":
             row["speedup_first"] = row["old_first_s"] / row["new_first_s"]
             row["speedup_warm"] = row["old_warm_s"] / row["new_warm_s"]
@@ -413,32 +416,76 @@ def gi_resume_stats(nodes=100, alpha=20.0, seed=0):
 
 
 def _build_sizes(text):
-    """argparse type of ``--build-sizes``: ``KxB,...`` with 1 <= K <= 100 (the graph has 100 nodes), B >= 1."""
+    """argparse type of ``--build-sizes``: ``KxB,...`` with 1 <= K <= 100 (the graph has 100 nodes),
+    1 <= B <= 2**16."""
     try:
         sizes = [tuple(int(x) for x in kb.split("x")) for kb in text.split(",")]
     except ValueError:
         sizes = None
-    if not sizes or any(len(s) != 2 or not 1 <= s[0] <= 100 or s[1] < 1 for s in sizes):
-        raise argparse.ArgumentTypeError(f"--build-sizes must be KxB,... with 1 <= K <= 100 and B >= 1, got {text!r}")
+    if not sizes or any(len(s) != 2 or not 1 <= s[0] <= 100 or not 1 <= s[1] <= 2**16 for s in sizes):
+        raise argparse.ArgumentTypeError(f"--build-sizes must be KxB,... with 1 <= K <= 100 and 1 <= B <= {2**16}, "
+                                         f"got {text!r}")
     return sizes
 
 
+def _alpha_list(name):
+    """argparse type: comma-separated robot values, each a finite number in ``[0, VALUE_MAX]``."""
+    from jaxdc.drp.world import VALUE_MAX
+
+    def parse(text):
+        try:
+            vals = [float(a) for a in text.split(",")]
+        except ValueError:
+            vals = None
+        if not vals or any(not 0.0 <= v <= VALUE_MAX for v in vals):  # NaN fails too
+            raise argparse.ArgumentTypeError(f"{name} must be comma-separated finite numbers in [0, {VALUE_MAX:g}], "
+                                             f"got {text!r}")
+        return vals
+
+    return parse
+
+
+def _names(name, allowed):
+    """argparse type: comma-separated names, each one of ``allowed``."""
+    def parse(text):
+        names = text.split(",")
+        bad = [x for x in names if x not in allowed]
+        if bad:
+            raise argparse.ArgumentTypeError(f"{name} must be comma-separated names among {', '.join(allowed)}, "
+                                             f"got {bad[0]!r}")
+        return names
+
+    return parse
+
+
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--nodes", type=int, default=100)
-    p.add_argument("--alpha", type=float, default=20.0)
-    p.add_argument("--fig-graphs", type=int, default=2)
-    p.add_argument("--fig-nodes", type=int, default=100)
-    p.add_argument("--fig-alphas", default="0,20,40,60")
+    """The benchmark's exit status; every flag is checked (ranges, names) before any work."""
+    from jaxdc.cli.runner import run
+
+    return run(_main, "python -m benchmarks.drp", argv)
+
+
+def _main(argv=None):
+    from jaxdc.cli.args import nonnegative_float, positive_int
+    from jaxdc.drp.tours import BUILDERS
+    from jaxdc.drp.world import MAX_NODES, VALUE_MAX
+
+    p = argparse.ArgumentParser(prog="python -m benchmarks.drp", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--nodes", type=positive_int("--nodes", MAX_NODES), default=100)
+    p.add_argument("--alpha", type=nonnegative_float("--alpha", VALUE_MAX), default=20.0)
+    p.add_argument("--fig-graphs", type=positive_int("--fig-graphs", 10**4), default=2)
+    p.add_argument("--fig-nodes", type=positive_int("--fig-nodes", MAX_NODES), default=100)
+    p.add_argument("--fig-alphas", type=_alpha_list("--fig-alphas"), default="0,20,40,60")
     p.add_argument("--skip-reference-nc", action="store_true", help="skip the slow NumPy NC solves")
     p.add_argument("--json", action="store_true")
     p.add_argument("--nc-cache", action="store_true", help="only the NC cached-vs-uncached comparison")
-    p.add_argument("--cc-graphs", type=int, default=3)
-    p.add_argument("--cc-nodes", type=int, default=100)
-    p.add_argument("--cc-alphas", default=",".join(str(5 * i) for i in range(17)))
-    p.add_argument("--cc-builders", default="ng,tl")
-    p.add_argument("--cc-rounds", default="cached,uncached,cached,uncached",
-                   help="order of the runs; a repeated path is timed warm")
+    p.add_argument("--cc-graphs", type=positive_int("--cc-graphs", 10**4), default=3)
+    p.add_argument("--cc-nodes", type=positive_int("--cc-nodes", MAX_NODES), default=100)
+    p.add_argument("--cc-alphas", type=_alpha_list("--cc-alphas"), default=",".join(str(5 * i) for i in range(17)))
+    p.add_argument("--cc-builders", type=_names("--cc-builders", BUILDERS), default="ng,tl")
+    p.add_argument("--cc-rounds", type=_names("--cc-rounds", tuple(NC_MODES)),
+                   default="cached,uncached,cached,uncached", help="order of the runs; a repeated path is timed warm")
     p.add_argument("--gi-resume-stats", action="store_true",
                    help="only: how much NC+GI with resume=True skips on one --nodes graph at --alpha")
     p.add_argument("--against", metavar="REV",
@@ -446,32 +493,31 @@ def main(argv=None):
     p.add_argument("--build-against", metavar="REV",
                    help="only the tour programs of REV against the working tree's (see --build-sizes)")
     p.add_argument("--build-sizes", type=_build_sizes, default="100x32,16x1024",
-                   help="comma-separated KxB: B clusters of K nodes (1 <= K <= 100) per call")
+                   help="comma-separated KxB: B clusters of K nodes (1 <= K <= 100, 1 <= B <= 65536) per call")
     p.add_argument("--fig-against", metavar="REV",
                    help="only: the figure-3.1 experiment with the jaxdc of REV vs the working tree's (--cc-graphs, "
                         "--cc-nodes, --cc-alphas)")
     args = p.parse_args(argv)
+    dump = lambda obj: json_text(obj, indent=None if args.json else 1)  # noqa: E731  strict JSON
     if args.build_against:
         rows = build_against(args.build_against, args.build_sizes)
-        print(json.dumps(rows) if args.json else json.dumps(rows, indent=1))
+        print(dump(rows))
         return
     if args.fig_against:
-        row = figure_against(args.fig_against, args.cc_graphs, args.cc_nodes,
-                             [float(a) for a in args.cc_alphas.split(",")])
-        print(json.dumps(row) if args.json else json.dumps(row, indent=1))
+        row = figure_against(args.fig_against, args.cc_graphs, args.cc_nodes, args.cc_alphas)
+        print(dump(row))
         return
     if args.against:
-        rows = nc_against(args.against, args.cc_graphs, args.cc_nodes, [float(a) for a in args.cc_alphas.split(",")],
-                          args.cc_builders.split(","))
-        print(json.dumps(rows) if args.json else json.dumps(rows, indent=1))
+        rows = nc_against(args.against, args.cc_graphs, args.cc_nodes, args.cc_alphas, args.cc_builders)
+        print(dump(rows))
         return
     if args.gi_resume_stats:
-        print(json.dumps(gi_resume_stats(args.nodes, args.alpha)))
+        print(json_text(gi_resume_stats(args.nodes, args.alpha), indent=None))
         return
     if args.nc_cache:
-        rows = nc_cache_compare(args.cc_graphs, args.cc_nodes, [float(a) for a in args.cc_alphas.split(",")],
-                                args.cc_builders.split(","), tuple(args.cc_rounds.split(",")))
-        print(json.dumps(rows) if args.json else json.dumps(rows, indent=1))
+        rows = nc_cache_compare(args.cc_graphs, args.cc_nodes, args.cc_alphas,
+                                args.cc_builders, tuple(args.cc_rounds))
+        print(dump(rows))
         return
 
     from jaxdc.drp import world
@@ -500,9 +546,9 @@ def main(argv=None):
                 row["speedup_warm"] = row["numpy_s"] / warm
             solves.append(row)
             if not args.json:
-                print(json.dumps(row), file=sys.stderr)
+                print(json_text(row, indent=None), file=sys.stderr)
 
-    alphas = [float(a) for a in args.fig_alphas.split(",")]
+    alphas = args.fig_alphas
     t0 = time.perf_counter()
     run_experiment("4-6", args.fig_graphs, args.fig_nodes, alphas, "corner", 0, BUILDERS, ("nc", "pgc"), quiet=True)
     jax_fig = time.perf_counter() - t0
@@ -523,8 +569,8 @@ def main(argv=None):
                                   "jax_extrapolated_full_s": jax_fig * full / inst,
                                   "numpy_extrapolated_full_s": np_fig * full / inst,
                                   "note": "full = 100 graphs x 17 alphas, linear extrapolation incl. one-off compile"}}
-    print(json.dumps(out) if args.json else json.dumps(out, indent=1))
+    print(dump(out))
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -91,4 +91,4 @@ def test_arguments_settle_once_into_frozen_records(tmp_path):
 def test_figure_graphs_must_be_positive(capsys):
     with pytest.raises(SystemExit):
         cli.main(["figure", "3.1", "--graphs", "0"])
-    assert "--graphs and --nodes must be >= 1" in capsys.readouterr().err
+    assert "--graphs must be an integer >= 1, got 0" in capsys.readouterr().err

@@ -4,7 +4,12 @@
     python -m eval.drp figure 3.1 [--graphs 100 --nodes 100 --alphas 0,5,...,80 --base centre|corner]
     python -m eval.drp gaps [--graphs 200 --nodes 8]
 
-Outputs go to ``results/drp/`` (JSON, CSV and PNG, each written atomically).
+Outputs go to ``results/drp/`` (JSON, CSV and PNG, each written atomically; a figure's JSON, CSV and PNG
+land together). Every flag is checked before any work: counts are bounded (``--graphs``, ``--nodes``, the
+memory the experiment needs), robot values are finite in ``[0, 1e9]``, seeds in ``[0, 2**32 - 1]`` (graph
+``i`` uses ``seed + i``, which must stay in that range), and the output folder and ``--draw`` file must be
+writable. Every JSON written or printed is strict (no NaN or Infinity: an undefined statistic is ``null``
+with a reason). Ctrl-C exits 130 with one line; a bad input exits 2 with one line naming it.
 """
 
 from __future__ import annotations
@@ -17,11 +22,18 @@ import sys
 import time
 from dataclasses import dataclass
 
-from jaxdc.cli.args import positive_int
+from jaxdc.cli.args import positive_float, positive_int, seed
+from jaxdc.cli.runner import run
+from jaxdc.core.validate import SEED_MAX
+from jaxdc.drp.exact import MAX_NODES as EXACT_MAX_NODES
 from jaxdc.drp.experiment import DEFAULT_ALPHAS, FIGURE_REWARDS
 from jaxdc.drp.solve import CLUSTERINGS
 from jaxdc.drp.tours import BUILDERS
-from jaxdc.io import atomic_write, enable_compilation_cache
+from jaxdc.drp.world import COORD_MAX, MAX_NODES, VALUE_MAX
+from jaxdc.io import atomic_write, atomic_write_set, check_output_folder, check_output_path, \
+    enable_compilation_cache, json_text
+
+PROG = "python -m eval.drp"
 
 OUT_DIR = os.path.join("results", "drp")
 #: The robot values the ``--markdown`` tables show (those of the figure's alphas among them).
@@ -83,15 +95,49 @@ class GapsSettings:
     quiet: bool
 
 
+#: Most graphs of a figure or gaps run (graph ``i`` is generated from seed ``seed + i``).
+MAX_GRAPHS = 10**6
+#: Most robot values of one run.
+MAX_ALPHAS = 1000
+#: Most worker processes of a figure (more than one per builder are never used).
+MAX_WORKERS = 64
+
+
 def _png(text: str) -> str:
     if not text.lower().endswith(".png"):
-        raise argparse.ArgumentTypeError(f"must name a .png file, got {text!r}")
+        raise argparse.ArgumentTypeError(f"--draw must name a .png file, got {text!r}")
     return text
+
+
+def _alpha_values(name, text):
+    """Comma-separated robot values, each a finite number in ``[0, VALUE_MAX]`` (as floats)."""
+    parts = text.split(",")
+    if not text.strip() or len(parts) > MAX_ALPHAS:
+        raise argparse.ArgumentTypeError(f"{name} must be 1 to {MAX_ALPHAS} comma-separated numbers in "
+                                         f"[0, {VALUE_MAX:g}], got {text[:80]!r}")
+    out = []
+    for a in parts:
+        try:
+            v = float(a)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be comma-separated numbers in [0, {VALUE_MAX:g}], "
+                                             f"got {a!r}") from None
+        if not (0.0 <= v <= VALUE_MAX):  # NaN fails too
+            raise argparse.ArgumentTypeError(f"{name} values must be finite numbers in [0, {VALUE_MAX:g}] "
+                                             f"(robot values), got {a.strip()!r}")
+        out.append(v)
+    return out
 
 
 def _figure_alphas(text):
     """``--alphas`` of ``figure``: whole numbers as ints, 0 always included, sorted."""
-    return tuple(sorted(set([0] + [int(a) if float(a).is_integer() else float(a) for a in text.split(",")])))
+    vals = _alpha_values("--alphas", text)
+    return tuple(sorted(set([0] + [int(a) if a.is_integer() else a for a in vals])))
+
+
+def _gap_alphas(text):
+    """``--alphas`` of ``gaps``: the robot values the graphs draw from (floats, order kept)."""
+    return tuple(_alpha_values("--alphas", text))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -107,26 +153,31 @@ def build_parser() -> argparse.ArgumentParser:
     pp.add_argument("--draw", metavar="PNG", type=_png, help="also draw the tours, one colour per robot, to this PNG")
     pf = sub.add_parser("figure", help="rerun a chapter-3 figure")
     pf.add_argument("figure", choices=sorted(FIGURE_REWARDS))
-    pf.add_argument("--graphs", type=int, default=100)
-    pf.add_argument("--nodes", type=int, default=100)
-    pf.add_argument("--alphas", default=",".join(map(str, DEFAULT_ALPHAS)))
+    pf.add_argument("--graphs", type=positive_int("--graphs", MAX_GRAPHS), default=100)
+    pf.add_argument("--nodes", type=positive_int("--nodes", MAX_NODES), default=100)
+    pf.add_argument("--alphas", type=_figure_alphas, default=",".join(map(str, DEFAULT_ALPHAS)),
+                    help=f"robot values, comma-separated, each in [0, {VALUE_MAX:g}] (0 is always added)")
     pf.add_argument("--base", choices=("corner", "centre"), default="centre")
-    pf.add_argument("--seed", type=int, default=0)
+    pf.add_argument("--seed", type=seed("--seed"), default=0)
     pf.add_argument("--quick", action="store_true", help="10 graphs of 30 nodes")
     pf.add_argument("--force", action="store_true", help="recompute even if cached results exist")
     pf.add_argument("--cache", action="store_true", help="persistent XLA compilation cache (~/.cache/jaxdc/xla; JAXDC_NO_CACHE=1 turns it off)")
-    pf.add_argument("--workers", type=positive_int("--workers"), default=min(os.cpu_count() or 1, 6),
-                    help="processes, each taking a group of builders (default: one per CPU core, at most 6)")
+    pf.add_argument("--workers", type=positive_int("--workers", MAX_WORKERS), default=min(os.cpu_count() or 1, 6),
+                    help="processes, each taking a group of builders (default: one per CPU core, at most 6; "
+                         "more than one per builder are not started)")
     pf.add_argument("--quiet", action="store_true")
     pf.add_argument("--markdown", action="store_true",
                     help="print the normalised mean (SD) and PGC/NC tables at alpha = 10..60 instead of the JSON line")
     pg = sub.add_parser("gaps", help="heuristics against the exact solver on small graphs")
-    pg.add_argument("--graphs", type=int, default=200)
-    pg.add_argument("--nodes", type=int, default=8)
-    pg.add_argument("--size", type=float, default=40.0, help="side of the square (small graphs need a small one)")
-    pg.add_argument("--alphas", default="0,5,10,20,40")
+    pg.add_argument("--graphs", type=positive_int("--graphs", MAX_GRAPHS), default=200)
+    pg.add_argument("--nodes", type=positive_int("--nodes", EXACT_MAX_NODES), default=8,
+                    help=f"nodes per graph, 1..{EXACT_MAX_NODES} (the exact solver's limit)")
+    pg.add_argument("--size", type=positive_float("--size", high=COORD_MAX), default=40.0,
+                    help="side of the square (small graphs need a small one)")
+    pg.add_argument("--alphas", type=_gap_alphas, default="0,5,10,20,40",
+                    help=f"robot values the graphs draw from, each in [0, {VALUE_MAX:g}]")
     pg.add_argument("--base", choices=("corner", "centre"), default="centre")
-    pg.add_argument("--seed", type=int, default=0)
+    pg.add_argument("--seed", type=seed("--seed"), default=0)
     pg.add_argument("--quiet", action="store_true")
     return p
 
@@ -138,10 +189,28 @@ def settle(args):
     if args.cmd == "figure":
         graphs, nodes = (10, 30) if args.quick else (args.graphs, args.nodes)
         return FigureSettings(args.out, args.figure, FIGURE_REWARDS[args.figure], graphs, nodes,
-                              _figure_alphas(args.alphas), args.base, args.seed, args.force, args.cache, args.workers,
+                              args.alphas, args.base, args.seed, args.force, args.cache, args.workers,
                               args.quiet, args.markdown)
-    return GapsSettings(args.out, args.graphs, args.nodes, args.size, tuple(float(a) for a in args.alphas.split(",")),
-                        args.base, args.seed, args.quiet)
+    return GapsSettings(args.out, args.graphs, args.nodes, args.size, args.alphas, args.base, args.seed, args.quiet)
+
+
+def check_settings(p: argparse.ArgumentParser, s) -> None:
+    """Refuse, before any work, settings the flags' own ranges let through: seeds past ``SEED_MAX`` for the
+    later graphs, an experiment too big for the machine's memory, unwritable outputs."""
+    if isinstance(s, (FigureSettings, GapsSettings)) and s.seed + s.graphs - 1 > SEED_MAX:
+        p.error(f"--seed {s.seed} with --graphs {s.graphs}: graph i uses seed + i, which must stay <= {SEED_MAX}; "
+                f"lower --seed or --graphs")
+    if isinstance(s, FigureSettings):
+        from jaxdc.core.memory import check_fits
+
+        # the stacked float32 distance matrices and their survival probabilities, on the host and the device
+        instances = s.graphs * len(s.alphas)
+        needed = 4 * 4 * s.graphs * (s.nodes + 1) ** 2 + 8 * 4 * instances * (s.nodes + 1)
+        check_fits(needed, f"figure {s.figure} with --graphs {s.graphs} --nodes {s.nodes}",
+                   "--graphs or --nodes")
+    check_output_folder(s.out, "--out")
+    if isinstance(s, PlanSettings) and s.draw:
+        check_output_path(s.draw, "--draw")
 
 
 # ----------------------------------------------------------------------------- plan
@@ -154,15 +223,18 @@ def run_plan(s: PlanSettings) -> int:
     try:
         graph = world.load(s.graph)
     except (ValueError, TypeError, OSError) as e:
-        print(f"error: {e}", file=sys.stderr)
+        print(f"{PROG}: error: --graph {s.graph}: {e}", file=sys.stderr)
         return 2
     D, beta, psi = graph_arrays([graph])
     (reward, tours), = solve_instances(s.builder, s.clustering, D, beta, psi, [0], [graph.alpha])
     result = {"expected_reward": float(reward), "robots": len(tours), "tours": tours}
+    text = json_text(result, indent=None)
     name = os.path.splitext(os.path.basename(s.graph))[0]
-    atomic_write(os.path.join(s.out, f"plan_{name}_{s.builder}_{s.clustering}.json"), json.dumps(result))
+    plan_path = os.path.join(s.out, f"plan_{name}_{s.builder}_{s.clustering}.json")
+    if not s.draw:
+        atomic_write(plan_path, text)
     if s.json:
-        print(json.dumps(result))
+        print(text)
     else:
         print(f"builder={s.builder} clustering={s.clustering}: {len(tours)} robot(s), "
               f"expected reward {reward:.4f}")
@@ -174,7 +246,7 @@ def run_plan(s: PlanSettings) -> int:
         buf = io.BytesIO()
         draw_plan(graph, tours, title=f"{s.builder.upper()} + {s.clustering.upper()}: {len(tours)} robot(s), "
                                       f"expected reward {reward:.3f}").savefig(buf, format="png", dpi=100)
-        atomic_write(s.draw, buf.getvalue())
+        atomic_write_set({plan_path: text, s.draw: buf.getvalue()})
         if not s.json:
             print(f"tours drawn to {s.draw}")
     return 0
@@ -184,12 +256,24 @@ def run_plan(s: PlanSettings) -> int:
 
 
 def _stored_experiment(path, config, force):
-    """The stored results at ``path`` if they exist, were made with ``config`` and ``force`` is off."""
+    """The stored results at ``path`` if they exist, were made with ``config`` and ``force`` is off.
+
+    A stored file that cannot be read, is not JSON or lacks the summary rows is recomputed (said on stderr).
+    """
     if not os.path.exists(path) or force:
         return None
-    with open(path) as f:
-        stored = json.load(f)
-    return stored if stored.get("config") == config else None
+    try:
+        with open(path) as f:
+            stored = json.load(f)
+    except (OSError, ValueError) as e:
+        print(f"{PROG}: stored results {path} cannot be read ({e}); recomputing", file=sys.stderr)
+        return None
+    if not isinstance(stored, dict) or stored.get("config") != config:
+        return None
+    if not isinstance(stored.get("rows"), list) or not isinstance(stored.get("wall_seconds"), (int, float)):
+        print(f"{PROG}: stored results {path} lack their rows; recomputing", file=sys.stderr)
+        return None
+    return stored
 
 
 def _compute_experiment(s: FigureSettings) -> dict:
@@ -216,20 +300,22 @@ def run_figure(s: FigureSettings) -> int:
     alphas = list(s.alphas)
     data_path = os.path.join(s.out, f"experiment_{s.tag}.json")
     stored = _stored_experiment(data_path, s.config, s.force)
+    files = {}
     if stored is None:
         stored = _compute_experiment(s)
-        atomic_write(data_path, json.dumps(stored))
-        atomic_write(data_path[:-5] + ".csv", rows_csv(stored["rows"]))
+        files[data_path] = json_text(stored, indent=None)
+        files[data_path[:-5] + ".csv"] = rows_csv(stored["rows"])
     png = os.path.join(s.out, f"fig{s.figure.replace('.', '_')}_{s.tag}.png")
     buf = io.BytesIO()
     draw_curves(stored["rows"], alphas, BUILDERS, s.figure).savefig(buf, format="png", dpi=80)
-    atomic_write(png, buf.getvalue())
+    files[png] = buf.getvalue()
+    atomic_write_set(files)
     if s.markdown:
         show = [a for a in alphas if a in MARKDOWN_ALPHAS] or alphas
         print(markdown_tables(stored["rows"], show, BUILDERS))
     else:
-        print(json.dumps({"figure": s.figure, "data": data_path, "png": png,
-                          "wall_seconds": round(stored["wall_seconds"], 1)}))
+        print(json_text({"figure": s.figure, "data": data_path, "png": png,
+                         "wall_seconds": round(stored["wall_seconds"], 1)}, indent=None))
     return 0
 
 
@@ -242,17 +328,24 @@ def run_gaps(s: GapsSettings) -> int:
     rows = optimality_gaps(gap_graphs(s.graphs, s.nodes, s.size, list(s.alphas), s.base, s.seed), quiet=s.quiet)
     out = {"config": {"graphs": s.graphs, "nodes": s.nodes, "size": s.size, "alphas": list(s.alphas),
                       "base": s.base, "seed": s.seed}, "rows": rows}
-    atomic_write(os.path.join(s.out, f"gaps_n{s.nodes}_g{s.graphs}.json"), json.dumps(out, indent=1))
+    atomic_write(os.path.join(s.out, f"gaps_n{s.nodes}_g{s.graphs}.json"), json_text(out, indent=1))
     for r in rows:
+        if r["mean_ratio"] is None:
+            print(f"{r['clustering']:>3} {r['builder']:>3}: n/a ({r['undefined']})")
+            continue
         print(f"{r['clustering']:>3} {r['builder']:>3}: mean heuristic/optimal {r['mean_ratio']:.4f}, "
               f"worst {r['min_ratio']:.4f}, optimal on {100 * r['optimal_share']:.0f}% of {r['graphs']} graphs")
     return 0
 
 
-def main(argv=None) -> int:
+def _main(argv=None) -> int:
     p = build_parser()
     args = p.parse_args(argv)
-    if getattr(args, "graphs", 1) < 1 or getattr(args, "nodes", 1) < 1:
-        p.error("--graphs and --nodes must be >= 1")
     s = settle(args)
+    check_settings(p, s)
     return {PlanSettings: run_plan, FigureSettings: run_figure, GapsSettings: run_gaps}[type(s)](s)
+
+
+def main(argv=None) -> int:
+    """The command line's exit status: 0, 2 for a bad flag or input (one line on stderr), 130 on Ctrl-C."""
+    return run(_main, PROG, argv)

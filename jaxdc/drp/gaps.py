@@ -24,6 +24,7 @@ def optimality_gaps(graphs, quiet=False):
 
     Returns one row per (clustering, builder): the mean and worst ratio, the share of graphs solved
     optimally (ratio above ``1 - 1e-4``) and the number of graphs compared (those with an optimum above 0).
+    When no graph has an optimum above 0, the ratios are ``None`` and ``undefined`` says why.
     """
     from tqdm import tqdm
 
@@ -37,6 +38,11 @@ def optimality_gaps(graphs, quiet=False):
         for b in BUILDERS:
             got = np.asarray([r for r, _ in solve_instances(b, c, D, beta, psi, gidx, al)])
             ok = opt > 1e-9
+            if not ok.any():
+                rows.append({"clustering": c, "builder": b, "mean_ratio": None, "min_ratio": None,
+                             "optimal_share": None, "graphs": 0,
+                             "undefined": "no graph has an optimal expected reward above 0"})
+                continue
             ratio = got[ok] / opt[ok]
             rows.append({"clustering": c, "builder": b, "mean_ratio": float(ratio.mean()),
                          "min_ratio": float(ratio.min()), "optimal_share": float(np.mean(ratio > 1 - 1e-4)),

@@ -9,6 +9,9 @@ from the tours on the host (float64), so the results equal
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import sys
 import time
 
@@ -32,6 +35,30 @@ def builder_groups(builders, workers):
     return groups
 
 
+@contextlib.contextmanager
+def _children_ignore_ctrl_c():
+    """Block SIGINT in this thread while worker processes start: they inherit the blocked mask and never see
+    a Ctrl-C sent to the whole process group; the parent still gets it (through another thread, or when the
+    block ends) and stops them (no tracebacks from the children)."""
+    can = hasattr(signal, "pthread_sigmask") and os.name == "posix"
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if can else None
+    try:
+        yield
+    finally:
+        if can:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _stop_children():
+    """Terminate this process's worker processes (on Ctrl-C: their work is abandoned)."""
+    import multiprocessing as mp
+
+    for child in mp.active_children():
+        child.kill()
+    for child in mp.active_children():
+        child.join(timeout=5)
+
+
 def _worker(task):
     """One process: NC with its builders, then PGC plans with them on the clusters the parent sends.
     Progress (NC rounds) goes to the parent through ``ticks``."""
@@ -53,7 +80,8 @@ def run_parallel(workers, rewards, graphs, nodes, alphas, base, seed, cache, qui
     """:func:`jaxdc.drp.experiment.run_experiment` split over ``workers`` processes: each takes a group of
     builders (:func:`builder_groups`) for NC and for the PGC plans. ``cache``: each worker turns on the
     persistent XLA compilation cache. Same ``(raw, timing)`` as the one-process experiment
-    (tests/test_drp_experiment.py), ``raw`` sorted by key."""
+    (tests/test_drp_experiment.py), ``raw`` sorted by key. On Ctrl-C (or SIGTERM) the worker processes are
+    terminated and ``KeyboardInterrupt`` propagates; the workers themselves never see the signal."""
     import multiprocessing as mp
     import queue as queue_mod
     from concurrent.futures import ProcessPoolExecutor
@@ -67,33 +95,53 @@ def run_parallel(workers, rewards, graphs, nodes, alphas, base, seed, cache, qui
     ctx = mp.get_context("spawn")
     raw, timing = {}, {}
     total = progress_units(builders, clusterings, nodes, graphs * len(alphas))
-    with ctx.Manager() as manager, ProcessPoolExecutor(len(groups), mp_context=ctx) as pool, \
-            tqdm(total=total, desc=f"DRP rewards {rewards} ({len(groups)} processes)", disable=quiet,
-                 file=sys.stderr) as bar:
-        clusters_q, ticks = manager.Queue(), manager.Queue()
-
-        def drain(block=False):
-            try:
-                while True:
-                    bar.update(ticks.get(timeout=0.5) if block else ticks.get_nowait())
-                    block = False
-            except queue_mod.Empty:
-                pass
-
-        futures = [pool.submit(_worker, (cache, clusters_q, ticks, rewards, graphs, nodes, alphas, base, seed, g,
-                                         clusterings)) for g in groups]
-        if "pgc" in clusterings:
-            D, beta, psi, gidx, al = experiment_arrays(rewards, graphs, nodes, alphas, base, seed)
-            t0 = time.perf_counter()
-            clusters = pgc_clusters(D, beta, psi, gidx, al, progress=lambda: (bar.update(1), drain()))
-            timing["pgc_clustering"] = time.perf_counter() - t0
-            for _ in groups:
-                clusters_q.put(clusters)
-        while not all(f.done() for f in futures):
-            drain(block=True)
-        drain()
-        for f in futures:
-            r, t = f.result()
-            raw.update(r)
-            timing.update(t)
+    manager = pool = None
+    try:
+        with _children_ignore_ctrl_c():
+            manager = ctx.Manager()
+            pool = ProcessPoolExecutor(len(groups), mp_context=ctx)
+            clusters_q, ticks = manager.Queue(), manager.Queue()
+            futures = [pool.submit(_worker, (cache, clusters_q, ticks, rewards, graphs, nodes, alphas, base, seed,
+                                             g, clusterings)) for g in groups]
+    except BaseException:
+        _stop_children()
+        raise
+    try:
+        with tqdm(total=total, desc=f"DRP rewards {rewards} ({len(groups)} processes)", disable=quiet,
+                  file=sys.stderr) as bar:
+            _collect(groups, clusterings, futures, clusters_q, ticks, bar, queue_mod, rewards, graphs, nodes,
+                     alphas, base, seed, raw, timing)
+    except BaseException:
+        _stop_children()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
+    manager.shutdown()
     return dict(sorted(raw.items())), timing
+
+
+def _collect(groups, clusterings, futures, clusters_q, ticks, bar, queue_mod, rewards, graphs, nodes, alphas, base,
+             seed, raw, timing):
+    """The parent's part of :func:`run_parallel`: PGC clusters to the workers, progress, then their results."""
+    def drain(block=False):
+        try:
+            while True:
+                bar.update(ticks.get(timeout=0.5) if block else ticks.get_nowait())
+                block = False
+        except queue_mod.Empty:
+            pass
+
+    if "pgc" in clusterings:
+        D, beta, psi, gidx, al = experiment_arrays(rewards, graphs, nodes, alphas, base, seed)
+        t0 = time.perf_counter()
+        clusters = pgc_clusters(D, beta, psi, gidx, al, progress=lambda: (bar.update(1), drain()))
+        timing["pgc_clustering"] = time.perf_counter() - t0
+        for _ in groups:
+            clusters_q.put(clusters)
+    while not all(f.done() for f in futures):
+        drain(block=True)
+    drain()
+    for f in futures:
+        r, t = f.result()
+        raw.update(r)
+        timing.update(t)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 
 import numpy as np
 
@@ -20,29 +21,43 @@ def summarise(raw, alphas):
     ``raw[(clustering, builder)]`` is ``[graphs, len(alphas)]`` (:func:`jaxdc.drp.experiment.run_experiment`);
     the normaliser is the first entry's mean at alpha = 0. Returns ``(normaliser, rows)``, one row per
     ``(clustering, builder, alpha)``; a PGC row also has ``pgc_over_nc`` when NC ran with its builder.
+    When the normaliser is not a positive finite number, ``mean`` and ``sd`` are ``None`` and the row's
+    ``undefined`` says why (the normaliser is then ``None`` too); ``pgc_over_nc`` is ``None`` when NC's mean
+    is not positive.
     """
     i0 = list(alphas).index(0)
     norm = float(np.mean(next(iter(raw.values()))[:, i0]))
+    defined = math.isfinite(norm) and norm > 0
     rows = []
     for (c, b), r in raw.items():
         for k, a in enumerate(alphas):
-            row = {"clustering": c, "builder": b, "alpha": a, "mean": float(r[:, k].mean() / norm),
-                   "sd": float(r[:, k].std() / norm)}
+            if defined:
+                row = {"clustering": c, "builder": b, "alpha": a, "mean": float(r[:, k].mean() / norm),
+                       "sd": float(r[:, k].std() / norm)}
+            else:
+                row = {"clustering": c, "builder": b, "alpha": a, "mean": None, "sd": None,
+                       "undefined": f"the mean reward at alpha = 0 (the normaliser) is {norm:g}, not positive"}
             if c == "pgc" and ("nc", b) in raw:
                 nc_mean = raw[("nc", b)][:, k].mean()
                 row["pgc_over_nc"] = float(r[:, k].mean() / nc_mean) if nc_mean > 0 else None
             rows.append(row)
-    return norm, rows
+    return (norm if defined else None), rows
 
 
 def rows_csv(rows) -> str:
     """The summary rows as CSV text with the header :data:`ROW_FIELDS`."""
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=list(ROW_FIELDS))
+    w = csv.DictWriter(buf, fieldnames=list(ROW_FIELDS), extrasaction="ignore")  # None: an empty cell
     w.writeheader()
     for r in rows:
         w.writerow(r)
     return buf.getvalue()
+
+
+def _mean_sd(row) -> str:
+    if row["mean"] is None:
+        return "–"
+    return f"{row['mean']:.3f} ({row['sd']:.3f})"
 
 
 def markdown_tables(rows, alphas, builders):
@@ -59,8 +74,7 @@ def markdown_tables(rows, alphas, builders):
         if not any((c, b, a) in at for b in order for a in alphas):
             continue
         out += head(f"{c.upper()} mean (SD)")
-        out += [f"| {b.upper()} | " + " | ".join(f"{at[c, b, a]['mean']:.3f} ({at[c, b, a]['sd']:.3f})"
-                                                for a in alphas) + " |" for b in order]
+        out += [f"| {b.upper()} | " + " | ".join(_mean_sd(at[c, b, a]) for a in alphas) + " |" for b in order]
         out.append("")
     if any(("pgc", b, a) in at and ("nc", b, a) in at for b in order for a in alphas):
         out += head("PGC / NC")

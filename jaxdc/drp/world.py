@@ -20,12 +20,13 @@ from __future__ import annotations
 import json
 import math
 import numbers
-import os
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+from jaxdc.io import atomic_write, json_text
 
 #: The thesis' reward distributions (section 3.5): integer-uniform 4..6, 1..9, all 5.
 REWARD_SETTINGS = {"4-6": (4, 6), "1-9": (1, 9), "5": (5, 5)}
@@ -118,8 +119,13 @@ def generate(seed: int, n: int = 100, rewards: str = "4-6", base: str = "centre"
         raise ValueError(f"rewards must be one of {sorted(REWARD_SETTINGS)}, got {rewards!r}")
     if base not in BASE_LOCATIONS:
         raise ValueError(f"base must be one of {BASE_LOCATIONS}, got {base!r}")
-    if not (isinstance(n, numbers.Integral) and n >= 1):
-        raise ValueError(f"n must be an integer >= 1, got {n!r}")
+    if not (isinstance(n, numbers.Integral) and not isinstance(n, bool) and 1 <= n <= MAX_NODES):
+        raise ValueError(f"n must be an integer in [1, {MAX_NODES}], got {n!r}")
+    if not (isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and seed >= 0):
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    size = _number("size", size, 0.0, COORD_MAX)
+    if size <= 0:
+        raise ValueError(f"size must be in (0, {COORD_MAX:g}], got {size:g}")
     rng = np.random.default_rng(seed)
     nodes = rng.uniform(0.0, size, size=(n, 2))
     lo, hi = REWARD_SETTINGS[rewards]
@@ -132,23 +138,49 @@ def generate(seed: int, n: int = 100, rewards: str = "4-6", base: str = "centre"
 
 _KEYS = ("base", "nodes", "rewards", "psi", "alpha")
 
+#: Largest ``|x|``, ``|y|`` of the base and of a node. Every planner works in float32 (largest finite value
+#: about 3.4e38): with coordinates within 1e9 a distance is at most 2.9e9 (its squared components at most
+#: 8e18), a tour over at most MAX_NODES + 1 edges is shorter than 1e14, and products of a length and a
+#: value (the criteria of Eqs. 3.2-3.7) stay below 1e23.
+COORD_MAX = 1e9
+#: Largest node reward and robot value alpha. The sums of Eq. 3.1 are at most
+#: ``sum(rewards) + n * alpha <= 2 * MAX_NODES * VALUE_MAX < 7e13``, far from float32 overflow.
+VALUE_MAX = 1e9
+#: Most nodes a graph may have (the distance matrix alone is ``4 (n + 1)^2`` bytes: 4 GB at this bound).
+MAX_NODES = 2**15
+#: Smallest survival probability per unit distance: the smallest normal float32 (a smaller psi is 0 in float32).
+PSI_MIN = float(np.finfo(np.float32).tiny)
 
-def _number(name, value):
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+
+def _number(name, value, low=None, high=None):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a number, got {value!r}")
-    if not math.isfinite(float(value)):
+    try:
+        v = float(value)
+    except OverflowError:  # an int too large for a float
+        raise ValueError(f"{name} must be a finite number, got an integer of {len(str(abs(int(value))))} "
+                         f"digits") from None
+    if not math.isfinite(v):
         raise ValueError(f"{name} must be finite, got {value!r}")
-    return float(value)
+    if (low is not None and v < low) or (high is not None and v > high):
+        raise ValueError(f"{name} must be in [{low:g}, {high:g}] (so that the float32 planners stay finite), "
+                         f"got {v:g}")
+    return v
 
 
 def _point(name, value):
     if not isinstance(value, (list, tuple, np.ndarray)) or len(value) != 2:
         raise ValueError(f"{name} must be a pair [x, y], got {value!r}")
-    return [_number(f"{name}[{i}]", v) for i, v in enumerate(value)]
+    return [_number(f"{name}[{i}]", v, -COORD_MAX, COORD_MAX) for i, v in enumerate(value)]
 
 
 def validate(graph: Graph) -> Graph:
-    """Check a graph and return it with numpy arrays; ``ValueError``/``TypeError`` name the field."""
+    """Check a graph and return it with numpy arrays; ``ValueError``/``TypeError`` name the field.
+
+    Coordinates must be finite numbers within ``±COORD_MAX``, rewards and alpha finite in
+    ``[0, VALUE_MAX]``, psi in ``[PSI_MIN, 1]`` and the graph must have ``1 .. MAX_NODES`` nodes, so that the
+    distances, tour lengths and sums of Eq. 3.1 stay finite in float32. Booleans are refused.
+    """
     base_in = graph.base.tolist() if isinstance(graph.base, np.ndarray) else graph.base
     base = np.asarray(_point("base", base_in))
     nodes_in = graph.nodes.tolist() if isinstance(graph.nodes, np.ndarray) else graph.nodes
@@ -156,6 +188,8 @@ def validate(graph: Graph) -> Graph:
         raise TypeError(f"nodes must be a list of [x, y] pairs, got {type(nodes_in).__name__}")
     if len(nodes_in) == 0:
         raise ValueError("nodes must be a non-empty list of [x, y] pairs, got an empty list")
+    if len(nodes_in) > MAX_NODES:
+        raise ValueError(f"nodes must hold at most {MAX_NODES} nodes, got {len(nodes_in)}")
     nodes = np.asarray([_point(f"nodes[{i}]", p) for i, p in enumerate(nodes_in)])
     rewards_in = graph.rewards.tolist() if isinstance(graph.rewards, np.ndarray) else graph.rewards
     if not isinstance(rewards_in, (list, tuple)):
@@ -167,12 +201,22 @@ def validate(graph: Graph) -> Graph:
     bad = np.flatnonzero(rewards < 0)
     if bad.size:
         raise ValueError(f"rewards[{bad[0]}] must be >= 0, got {rewards[bad[0]]}")
+    bad = np.flatnonzero(rewards > VALUE_MAX)
+    if bad.size:
+        raise ValueError(f"rewards[{bad[0]}] must be in [0, {VALUE_MAX:g}] (so that the float32 planners stay "
+                         f"finite), got {rewards[bad[0]]:g}")
     psi = _number("psi", graph.psi)
     if not 0.0 < psi <= 1.0:
         raise ValueError(f"psi must be in (0, 1], got {psi}")
+    if psi < PSI_MIN:
+        raise ValueError(f"psi must be >= {PSI_MIN:.4g} (the smallest normal float32; a smaller one is 0 "
+                         f"there), got {psi:g}")
     alpha = _number("alpha", graph.alpha)
     if alpha < 0:
         raise ValueError(f"alpha must be >= 0, got {alpha}")
+    if alpha > VALUE_MAX:
+        raise ValueError(f"alpha must be in [0, {VALUE_MAX:g}] (so that the float32 planners stay finite), "
+                         f"got {alpha:g}")
     return Graph(base, nodes, rewards, psi, alpha)
 
 
@@ -203,8 +247,8 @@ def load(path) -> Graph:
 
 
 def save(graph: Graph, path) -> None:
-    """Write a graph JSON file atomically (temp file, then ``os.replace``)."""
-    tmp = f"{path}.tmp{os.getpid()}"
-    with open(tmp, "w") as f:
-        json.dump(to_dict(graph), f)
-    os.replace(tmp, path)
+    """Write a graph JSON file atomically (same-folder temp file, then ``os.replace``; strict JSON).
+
+    An interruption leaves the old file or the complete new one, never a temporary file.
+    """
+    atomic_write(path, json_text(to_dict(validate(graph)), indent=None))

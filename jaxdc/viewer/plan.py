@@ -15,7 +15,7 @@ def plan_tours(plan, n: int) -> list[list[int]]:
     """The tours of ``plan`` as lists of node indices (1..n) after checking them.
 
     ``plan`` is a list of tours (node lists, as ``eval.drp plan`` prints and
-    :func:`jaxdc.drp.clustering.plan_tours` returns), a ``[T, L]`` array padded
+    :func:`jaxdc.drp.plans.plan_tours` returns), a ``[T, L]`` array padded
     with ``-1`` (section 3.3's plan), or a dict with a ``"tours"`` entry.
     """
     if isinstance(plan, dict):
@@ -48,11 +48,13 @@ def draw_plan(world, plan, *, ax=None, title: str | None = None):
     ``world`` is a :class:`jaxdc.drp.world.Graph` (section 3.3); ``plan`` as in
     :func:`plan_tours`. The default title gives the number of robots and the
     plan's expected reward (Eq. 3.1). Draws into ``ax`` when given, else on a
-    new pyplot-free figure. Returns the matplotlib ``Figure``.
+    new pyplot-free figure. Returns the matplotlib ``Figure``. The graph is checked first
+    (:func:`jaxdc.drp.world.validate`).
     """
     if not isinstance(world, drp_world.Graph):
         raise TypeError(f"world must be a jaxdc.drp.world.Graph (e.g. world.generate(...) or world.load(path)), "
                         f"got {type(world).__name__}")
+    world = drp_world.validate(world)  # finite, float32-safe coordinates and rewards (ValueError names the field)
     nodes = np.asarray(world.nodes, np.float64)
     n = len(nodes)
     tours = plan_tours(plan, n)
