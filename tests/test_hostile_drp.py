@@ -205,6 +205,14 @@ def test_plan_draw_under_a_file_is_refused_before_work(tmp_path, capsys, monkeyp
     assert not (tmp_path / "o").exists()
 
 
+def test_plan_graph_too_big_for_memory_says_what_to_lower(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", "1000")
+    path = _graph_file(tmp_path, nodes=[[i, i] for i in range(20)], rewards=[1] * 20)
+    _refused(["--out", str(tmp_path / "o"), "plan", "--graph", str(path)], capsys, "--graph", "20-node",
+             "lower the number of nodes")
+    assert not (tmp_path / "o").exists()
+
+
 def test_plan_missing_graph_file_names_it(tmp_path, capsys):
     _refused(["--out", str(tmp_path / "o"), "plan", "--graph", str(tmp_path / "missing.json")], capsys,
              "--graph", "missing.json")

@@ -225,6 +225,11 @@ def run_plan(s: PlanSettings) -> int:
     except (ValueError, TypeError, OSError) as e:
         print(f"{PROG}: error: --graph {s.graph}: {e}", file=sys.stderr)
         return 2
+    from jaxdc.core.memory import check_fits
+
+    n = len(graph.nodes)
+    check_fits(4 * 4 * (n + 1) ** 2, f"planning the {n}-node graph of --graph {s.graph}",
+               "the number of nodes in the graph file")
     D, beta, psi = graph_arrays([graph])
     (reward, tours), = solve_instances(s.builder, s.clustering, D, beta, psi, [0], [graph.alpha])
     result = {"expected_reward": float(reward), "robots": len(tours), "tours": tours}
