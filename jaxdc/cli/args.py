@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from jaxdc.core.validate import INT32_MAX, SEED_MAX, check_float
+from jaxdc.core.validate import FLOAT32_MAX, INT32_MAX, SEED_MAX, check_float
 
 
 def _number(name: str, text: str, **limits) -> float:
@@ -100,4 +100,13 @@ def seed_list(name: str):
 
 def real(name: str, allow_inf: bool = False):
     """argparse type: any real number that fits float32 (NaN refused; ``+inf`` too unless ``allow_inf``)."""
-    return lambda text: _number(name, text, allow_inf=allow_inf)
+    what = "a finite number or inf" if allow_inf else "a finite number"
+
+    def parse(text):
+        try:
+            return _number(name, text, allow_inf=allow_inf)
+        except argparse.ArgumentTypeError:
+            raise argparse.ArgumentTypeError(f"{name} must be {what} (|x| <= {FLOAT32_MAX:.4g}), "
+                                             f"got {text!r}") from None
+
+    return parse

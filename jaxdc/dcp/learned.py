@@ -71,7 +71,8 @@ def check_params(net_name: str, net, params, grid_size: int, source: str):
     """``params`` as float32 if it has exactly the structure and shapes of ``net`` on ``grid_size`` and every value
     is finite, else ``ValueError`` naming ``source``."""
     params = check_like(init_params(net, grid_size), params, source,
-                        f"a {net_name} network on a {grid_size}x{grid_size} grid", "was it trained on another grid size?")
+                        f"a {net_name} network on a {grid_size}x{grid_size} grid",
+                        "was it trained on another grid size?")
     check_finite_params(params, source)
     return params
 
@@ -188,7 +189,7 @@ def describe(learned: Learned) -> str:
     """One line: network, training setting and source."""
     s = learned.setting()
     return (f"{learned.net_name} trained on {s['grid_size']}x{s['grid_size']}, risk {s['risk']}, "
-            f"total reward {s['total_reward']}, energy {s['energy'][0]:g}/{s['energy'][1]:g}, "
+            f"total reward {s['total_reward']}, energy {float(s['energy'][0]):g}/{float(s['energy'][1]):g}, "
             f"{_trained_for(learned.metadata)}, seed {learned.metadata.get('seed', '?')} "
             f"({learned.source})")
 

@@ -22,5 +22,5 @@ def check_learner(spec, learned: learned_lib.Learned) -> learned_lib.Learned:
     if have["risk"] != spec.risk or tuple(map(float, have["energy"])) != tuple(map(float, spec.energy)):
         raise ValueError(f"Table {spec.name} needs a {net} trained with risk {spec.risk!r} and energy "
                          f"{spec.energy[0]:g}/{spec.energy[1]:g}; this one was trained with risk "
-                         f"{have['risk']!r} and energy {have['energy'][0]:g}/{have['energy'][1]:g}")
+                         f"{have['risk']!r} and energy {float(have['energy'][0]):g}/{float(have['energy'][1]):g}")
     return learned
