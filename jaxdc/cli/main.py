@@ -40,8 +40,9 @@ def main(argv=None) -> int:
         print(usage(), file=sys.stderr)
         print(f"\njaxdc: error: unknown program {' '.join(argv[:2])!r}", file=sys.stderr)
         return EXIT_USAGE
-    module = importlib.import_module(PROGRAMS[key][0])
-    return run(module.main, f"jaxdc {key[0]} {key[1]}", argv[2:])
+    name = PROGRAMS[key][0]
+    # the import runs inside run() too, so that a Ctrl-C while the libraries load exits 130 cleanly
+    return run(lambda rest: importlib.import_module(name).main(rest), f"jaxdc {key[0]} {key[1]}", argv[2:])
 
 
 if __name__ == "__main__":
