@@ -1,7 +1,5 @@
 """``python -m jaxdc <group> <program> [flags]``: the ``jaxdc`` command (:mod:`jaxdc.cli.main`)."""
 
-import sys
+from jaxdc.cli.main import console
 
-from jaxdc.cli.main import main
-
-sys.exit(main())
+console()

@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 import sys
 
-from jaxdc.cli.runner import EXIT_USAGE, run
+from jaxdc.cli.runner import EXIT_USAGE, exit_process, run
 
 #: (group, program) -> the module whose ``main(argv)`` runs it, and what it does.
 PROGRAMS = {
@@ -45,5 +45,10 @@ def main(argv=None) -> int:
     return run(lambda rest: importlib.import_module(name).main(rest), f"jaxdc {key[0]} {key[1]}", argv[2:])
 
 
+def console() -> None:
+    """The ``jaxdc`` console script."""
+    exit_process(main())
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    console()

@@ -11,6 +11,10 @@
   into ``<prog>: error: <message>`` and exit status 2, as argparse does for flags.
 
 Set ``JAXDC_DEBUG=1`` to see the full traceback instead.
+
+:func:`exit_process` ends a command-line process with a status: after an
+interruption it flushes and leaves with ``os._exit``, because the interpreter's
+normal shutdown can crash while JAX's runtime threads are still busy.
 """
 
 from __future__ import annotations
@@ -50,3 +54,23 @@ def run(main, prog: str, argv=None) -> int:
         return EXIT_USAGE
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def exit_process(status: int):
+    """End the process with ``status`` (the entry points' last call; never from a library or a test)."""
+    if status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+    sys.exit(status)
+
+
+def entry(module: str, prog: str) -> None:
+    """A ``python -m`` entry point: import ``module`` and run its ``main`` under :func:`run`, then exit.
+
+    The import is inside the interruption handling too, so a Ctrl-C while the libraries load also
+    exits 130 with one line.
+    """
+    import importlib
+
+    exit_process(run(lambda argv: importlib.import_module(module).main(argv), prog))

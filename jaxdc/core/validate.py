@@ -102,5 +102,6 @@ def _float_range_text(low, high, low_open, allow_inf) -> str:
         parts.append(f"{'>' if low_open else '>='} {low:.10g}")
     if high is not None:
         parts.append(f"<= {high:.10g}")
-    text = " and ".join(parts) if parts else "(finite)"
-    return text + (" (or inf)" if allow_inf else "")
+    if not parts:
+        return "a number (or inf)" if allow_inf else "a finite number"
+    return " and ".join(parts) + (" (or inf)" if allow_inf else "")
