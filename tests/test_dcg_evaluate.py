@@ -99,7 +99,8 @@ def test_a_network_without_head_has_no_accuracy():
     assert s["opponent_accuracy"] is None
     assert all(p["opponent_accuracy"] is None for p in s["per_strategy"].values())
     assert s["energy"]["mean"] == 0.0  # staying in the base uses no energy ...
-    assert np.isnan(s["rpe"]["mean"])  # ... so every game is left out of the RPE
+    assert s["rpe"]["mean"] is None  # ... so every game is left out of the RPE, which is undefined
+    assert s["rpe"]["undefined"] == "no episode consumed energy"
     assert ev.summarize(final, env.strategies, rpe_zero="zero")["rpe"]["mean"] == 0.0
     with pytest.raises(ValueError, match="episodes"):
         ev.evaluate_policy(env, params, stay, jax.random.PRNGKey(0), episodes=0)
@@ -124,7 +125,8 @@ def test_episode_summary_is_the_dcp_summary():
 
 def test_relative_increase():
     assert ev.relative_increase(1.19, 1.0) == pytest.approx(19.0)
-    assert np.isnan(ev.relative_increase(1.0, 0.0))
+    assert ev.relative_increase(1.0, 0.0) is None
+    assert ev.relative_increase(None, 1.0) is None
 
 
 def test_play_episode_returns_every_state_of_one_game():

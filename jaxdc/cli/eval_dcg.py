@@ -12,7 +12,10 @@ Examples::
     python -m eval.dcg optimum --episodes 2000                      # the full-information bound, 10 items
 
 An evaluation writes its JSON atomically to ``--out`` (default
-``results/dcg``); ``--json`` prints exactly one JSON object. ``figure``
+``results/dcg``); ``--json`` prints exactly one JSON object. Every JSON is
+strict: unlimited energy is ``"inf"``, an undefined statistic (the RPE of games
+that consumed no energy) is ``null`` beside its reason, and the text reports
+print it as ``—``. ``figure``
 writes ``results/dcg/figure_<experiment>.{json,csv,md}`` and
 ``docs/img/dcg_fig<N>.png`` (evaluations are kept in ``runs/eval-cache/dcg/``
 and reused for the same parameter file and settings; ``--no-cache``
@@ -20,6 +23,12 @@ re-runs them); ``render`` writes a PNG strip (Figs.
 5.13-5.15) and a GIF; ``optimum`` estimates the full-information bound of the
 standard game over sampled games (``jaxdc.dcg.exact.many_items``) and writes
 ``results/dcg/optimum_<settings>.json``.
+
+Every flag value is checked before any work (numbers finite and in range,
+seeds in ``0 .. 2**32 - 1``, output folders creatable and writable); a bad one
+exits 2 with one line naming the flag. The files of one result (a figure's
+JSON, CSV, markdown and PNGs; a render's PNG and GIF) land together, and Ctrl-C
+exits 130 leaving the previous files or the complete new set.
 """
 
 from __future__ import annotations
@@ -34,7 +43,9 @@ import sys
 
 import jax
 
-from jaxdc.cli.args import positive_float, positive_int
+from jaxdc.cli.args import integer, positive_float, positive_int, seed
+from jaxdc.cli.runner import run
+from jaxdc.core.energy import MAX_FINITE_ENERGY
 from jaxdc.core.trajectory import play_episode
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis.cache import EvaluationCache
@@ -47,10 +58,12 @@ from jaxdc.dcg.analysis.report import (figure_csv, figure_markdown, figure_paylo
                                        optimum_text, report, result_name)
 from jaxdc.dcg.env import CAPTURES, DCG, OPPONENT_STARTS, OUTCOMES, PATROL_TARGETS
 from jaxdc.dcg.exact.many_items import sampled_bound
+from jaxdc.dcg.exact.one_item import MAX_GRID_SIZE
 from jaxdc.dcg.opponents import CHASE_TIES, DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
-from jaxdc.io import atomic_write, atomic_write_json, enable_compilation_cache
-from jaxdc.viewer.bars import save_bar_chart, save_strategy_chart
-from jaxdc.viewer.media import save_animation, save_strip
+from jaxdc.io import (atomic_write_json, atomic_write_set, check_output_folder, enable_compilation_cache,
+                      json_text)
+from jaxdc.viewer.bars import bar_chart_png, strategy_chart_png
+from jaxdc.viewer.media import animation_bytes, check_animation, strip_png
 
 PROG = "python -m eval.dcg"
 RESULTS = os.path.join("results", "dcg")
@@ -58,6 +71,14 @@ IMAGES = os.path.join("docs", "img")
 #: The subcommands; a command line that does not start with one of them is an ``evaluate``.
 SUBCOMMANDS = ("evaluate", "figure", "render", "optimum")
 DEFAULT_SUBCOMMAND = "evaluate"
+#: Most frames per row of a ``render`` strip.
+MAX_COLS = 1000
+#: Most frames per second of a ``render`` animation.
+MAX_FPS = 60
+#: Most steps a ``render`` plays (every step is a drawn frame).
+MAX_RENDER_STEPS = 1000
+#: Most unit rewards ``optimum`` drops (each sampled game holds every unit while it is dropped).
+MAX_TOTAL_REWARD = 1000
 
 
 # -- argument types and groups ------------------------------------------------------------------
@@ -83,8 +104,12 @@ def _add_strategy_set(p, default, default_text):
                       help=f"play {','.join(DOUBLE_BLIND_STRATEGIES)} (section 5.5.7, Figs. 5.18-5.19)")
 
 
+def _energy():
+    return positive_float("--energy", allow_inf=True, high=MAX_FINITE_ENERGY)
+
+
 def _add_game(p):
-    p.add_argument("--energy", type=positive_float("--energy", allow_inf=True), default=None,
+    p.add_argument("--energy", type=_energy(), default=None,
                    help="maximum energy (default: as trained; 10/15/20 in Figs. 5.8-5.9)")
     _add_strategy_set(p, None, "as trained")
     p.add_argument("--reward-area", type=positive_int("--reward-area"), default=None, metavar="S",
@@ -113,7 +138,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_network(p)
     _add_game(p)
     p.add_argument("--episodes", type=positive_int("--episodes"), default=10_000)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed("--seed"), default=0)
     p.add_argument("--rpe-zero", choices=("exclude", "zero"), default="exclude",
                    help="RPE of a game that used no energy: left out (default) or 0")
     p.add_argument("--no-bound", action="store_true", help="with --reward-area: skip the exact bound")
@@ -127,7 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("figure", choices=sorted(FIGURES, key=_figure_order) + ["all"],
                    help="a thesis figure (its pair is made with it: 5.6 and 5.7 are one experiment)")
     p.add_argument("--episodes", type=positive_int("--episodes"), default=10_000)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed("--seed"), default=0)
     p.add_argument("--nets-dir", default=None, help="folder of .msgpack parameter files (default: the shipped ones)")
     p.add_argument("--greedy", action="store_true")
     p.add_argument("--no-bound", action="store_true",
@@ -147,15 +172,18 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Play one game and draw it: a PNG strip like Figs. 5.13-5.15 and a GIF.")
     _add_network(p)
     p.add_argument("--strategy", type=_strategies, required=True, help="the opponent strategy, e.g. patrol")
-    p.add_argument("--seed", type=int, default=0, help="the game (same seed: same initial state for every network)")
-    p.add_argument("--energy", type=positive_float("--energy", allow_inf=True), default=None)
+    p.add_argument("--seed", type=seed("--seed"), default=0,
+                   help="the game (same seed: same initial state for every network)")
+    p.add_argument("--energy", type=_energy(), default=None)
     p.add_argument("--reward-area", type=positive_int("--reward-area"), default=None, metavar="S",
                    help="one unit item in the bottom-right S x S square (as in Figs. 5.13-5.15)")
-    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=30,
-                   help="steps to play at most (default 30)")
+    p.add_argument("--max-steps", type=positive_int("--max-steps", high=MAX_RENDER_STEPS), default=30,
+                   help=f"steps to play at most, one frame each (default 30, at most {MAX_RENDER_STEPS})")
     p.add_argument("--greedy", action="store_true", help="deterministic policy (argmax), as Figs. 5.13-5.15")
-    p.add_argument("--cols", type=positive_int("--cols"), default=None, help="frames per row in the strip")
-    p.add_argument("--fps", type=positive_int("--fps"), default=4)
+    p.add_argument("--cols", type=positive_int("--cols", high=MAX_COLS), default=None,
+                   help="frames per row in the strip")
+    p.add_argument("--fps", type=positive_int("--fps", high=MAX_FPS), default=4,
+                   help=f"frames per second of the GIF (1..{MAX_FPS}; default 4)")
     p.add_argument("--out", default=os.path.join(RESULTS, "render"), help="folder for the PNG and GIF")
     p.set_defaults(run=_render, error=p.error)
 
@@ -163,9 +191,11 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Estimate the full-information bound of the DCG over sampled games: the "
                                    "most reward any collector could take from each game, knowing the "
                                    "opponent's strategy and hidden state (jaxdc.dcg.exact.many_items).")
-    p.add_argument("--grid-size", type=positive_int("--grid-size"), default=5, help="N (5 in the thesis)")
-    p.add_argument("--total-reward", type=positive_int("--total-reward"), default=10, help="unit rewards dropped")
-    p.add_argument("--energy", type=positive_float("--energy", allow_inf=True), default=15.0,
+    p.add_argument("--grid-size", type=integer("--grid-size", low=2, high=MAX_GRID_SIZE), default=5,
+                   help=f"N (5 in the thesis; 2..{MAX_GRID_SIZE} for the exact search)")
+    p.add_argument("--total-reward", type=positive_int("--total-reward", high=MAX_TOTAL_REWARD), default=10,
+                   help=f"unit rewards dropped (10; at most {MAX_TOTAL_REWARD})")
+    p.add_argument("--energy", type=_energy(), default=15.0,
                    help="maximum energy, a whole number or inf (15; 10/20 in Figs. 5.8-5.9)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=100, help="step cap (100)")
     p.add_argument("--chase-tie", choices=CHASE_TIES[:2], default=CHASE_TIES[0],
@@ -182,7 +212,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--opponent-out-of-base", action="store_true",
                    help="rule reading: the opponent may not enter the base")
     p.add_argument("--episodes", type=positive_int("--episodes"), default=2000, help="sampled games (2000)")
-    p.add_argument("--seed", type=int, default=0, help="the games' PRNG key")
+    p.add_argument("--seed", type=seed("--seed"), default=0, help="the games' PRNG key")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
     p.add_argument("--out", default=RESULTS, help="folder for the result JSON")
@@ -294,7 +324,17 @@ def _load(checkpoint, net):
 
 
 # -- the subcommands ----------------------------------------------------------------------------
+def _check_folders(args, *flags):
+    """Refuse, before any work, an output folder (``--out`` ...) that cannot be created or written."""
+    for flag in flags:
+        try:
+            check_output_folder(getattr(args, flag.lstrip("-").replace("-", "_")), flag)
+        except ValueError as e:
+            args.error(str(e))
+
+
 def _evaluate(args, command) -> int:
+    _check_folders(args, "--out")
     s = EvaluateSettings.from_args(args)
     enable_compilation_cache()
     try:
@@ -307,9 +347,10 @@ def _evaluate(args, command) -> int:
     except (TypeError, ValueError) as e:
         args.error(str(e))
     r["command"] = command
+    line = json_text(r, indent=None)  # strict: refused before anything is written
     path = atomic_write_json(os.path.join(s.out, result_name(r)), r)
     if s.json:
-        print(json.dumps(r))
+        print(line)
     else:
         print(report(r))
         print(f"written to {path}", file=sys.stderr)
@@ -317,6 +358,7 @@ def _evaluate(args, command) -> int:
 
 
 def _figure(args, command) -> int:
+    _check_folders(args, "--out", "--img", "--cache")
     s = FigureSettings.from_args(args)
     enable_compilation_cache()
     try:
@@ -333,25 +375,26 @@ def _figure(args, command) -> int:
                 print(f"  no network for this experiment; missing: {'; '.join(gone)}", file=sys.stderr)
                 continue
             verdicts = claims(exp, data.results, stored_standard(s.out) if name == "double_blind" else None)
-            images = []
+            images = {}
             for fig_no, col in zip(exp.figures, ("reward", "rpe")):
                 path = os.path.join(s.img, f"dcg_fig{fig_no.replace('.', '_')}.png")
                 title = f"Fig. {fig_no} (ours): {'episode reward' if col == 'reward' else 'RPE'}\n{exp.caption}"
-                images.append(save_bar_chart(path, data.results, exp.groups, col, title, data.bounds,
-                                             [f"{exp.group_name} {group_key(g)}" for g in exp.groups]))
+                images[path] = bar_chart_png(data.results, exp.groups, col, title, data.bounds,
+                                             [f"{exp.group_name} {group_key(g)}" for g in exp.groups])
             if exp.per_strategy_chart:
                 path = os.path.join(s.img, f"dcg_{name}_per_strategy.png")
-                p = save_strategy_chart(path, data.results[None],
-                                        f"Episode reward per opponent strategy (ours)\n{exp.caption}")
-                if p:
-                    images.append(p)
+                png = strategy_chart_png(data.results[None],
+                                         f"Episode reward per opponent strategy (ours)\n{exp.caption}")
+                if png is not None:
+                    images[path] = png
             rel = [os.path.relpath(p, s.out) for p in images]
             payload = figure_payload(exp, data, verdicts, gone, command=command, episodes=s.play.episodes,
                                      seed=s.play.seed, greedy=s.play.greedy)
-            atomic_write_json(os.path.join(s.out, f"figure_{name}.json"), payload)
-            atomic_write(os.path.join(s.out, f"figure_{name}.csv"), figure_csv(data.results))
             md = figure_markdown(exp, data, verdicts, gone, command, rel)
-            atomic_write(os.path.join(s.out, f"figure_{name}.md"), md)
+            atomic_write_set({**images,  # the figure's files land together
+                              os.path.join(s.out, f"figure_{name}.json"): json_text(payload) + "\n",
+                              os.path.join(s.out, f"figure_{name}.csv"): figure_csv(data.results),
+                              os.path.join(s.out, f"figure_{name}.md"): md})
             print(md)
     except (TypeError, ValueError) as e:
         args.error(str(e))
@@ -359,9 +402,11 @@ def _figure(args, command) -> int:
 
 
 def _render(args, command) -> int:
+    _check_folders(args, "--out")
     try:
         s = RenderSettings.from_args(args)
-    except ValueError as e:
+        check_animation(".gif", s.fps)
+    except (RuntimeError, ValueError) as e:
         args.error(str(e))
     enable_compilation_cache()
     try:
@@ -374,8 +419,10 @@ def _render(args, command) -> int:
     last = states[-1]
     stem = (f"dcg_{learned.net_name}_{s.strategy}_s{s.seed}" + ("_greedy" if s.greedy else "")
             + (f"_area{s.reward_area}" if s.reward_area else ""))
-    strip = save_strip(env, params, states, os.path.join(s.out, stem + ".png"), cols=s.cols)
-    gif = save_animation(env, params, states, os.path.join(s.out, stem + ".gif"), fps=s.fps)
+    strip, gif = os.path.join(s.out, stem + ".png"), os.path.join(s.out, stem + ".gif")
+    files = {strip: strip_png(env, params, states, cols=s.cols),
+             gif: animation_bytes(env, params, states, ".gif", fps=s.fps)}
+    atomic_write_set(files)  # the strip and the animation land together
     print(f"{learned.net_name} vs {s.strategy}, seed {s.seed}: {len(states) - 1} steps, "
           f"reward {float(last.ep_reward):g}, outcome {OUTCOMES[int(last.outcome)]}")
     print(f"written {strip} and {gif}")
@@ -383,6 +430,7 @@ def _render(args, command) -> int:
 
 
 def _optimum(args, command) -> int:
+    _check_folders(args, "--out")
     try:
         s = OptimumSettings.from_args(args)
     except ValueError as e:
@@ -396,20 +444,31 @@ def _optimum(args, command) -> int:
     out = optimum_payload(res, env, energy=s.energy, max_steps=s.max_steps, chase_tie=s.chase_tie, seed=s.seed,
                           command=command)
     path = os.path.join(s.out, optimum_name(out, s.episodes))
+    line = json_text(out, indent=None)
     atomic_write_json(path, out)
     if s.json:
-        print(json.dumps(out))
+        print(line)
     else:
         print(optimum_text(out["optimum"], s.episodes))
         print(f"written {path}")
     return 0
 
 
-def main(argv=None) -> int:
-    """Run ``python -m eval.dcg`` on ``argv`` (default ``sys.argv[1:]``); a command line that does not start
-    with a subcommand is an evaluation (``evaluate``)."""
+def _main(argv) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     explicit = bool(argv) and argv[0] in SUBCOMMANDS
     args = build_parser().parse_args(argv if explicit else [DEFAULT_SUBCOMMAND, *argv])
     command = f"{PROG} " + (f"{argv[0]} {shlex.join(argv[1:])}" if explicit else shlex.join(argv))
-    return args.run(args, command)
+    try:
+        return args.run(args, command)
+    except jax.errors.JaxRuntimeError as e:  # the device ran out of memory: one line, what to lower
+        if "RESOURCE_EXHAUSTED" not in str(e):
+            raise
+        raise MemoryError(f"{str(e).splitlines()[0]}; lower --episodes (or the game's size)") from None
+
+
+def main(argv=None) -> int:
+    """Run ``python -m eval.dcg`` on ``argv`` (default ``sys.argv[1:]``); a command line that does not start
+    with a subcommand is an evaluation (``evaluate``). Returns the exit status (:func:`jaxdc.cli.runner.run`:
+    a bad value exits 2 with one line, Ctrl-C 130); a bad flag exits 2 through argparse."""
+    return run(_main, PROG, argv)

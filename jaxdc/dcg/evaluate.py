@@ -193,8 +193,9 @@ def summarize(final: ScoredState, strategies, rpe_zero: str = "exclude") -> dict
     return out
 
 
-def relative_increase(value: float, baseline: float) -> float:
-    """``100 * (value / baseline - 1)``: the "% more reward than VNN" of section 5.5.3 (NaN for a 0 baseline)."""
-    if baseline == 0 or math.isnan(baseline):
-        return math.nan
+def relative_increase(value: float | None, baseline: float | None) -> float | None:
+    """``100 * (value / baseline - 1)``: the "% more reward than VNN" of section 5.5.3; ``None`` (undefined) for a
+    0 baseline or a missing or NaN value."""
+    if value is None or baseline is None or baseline == 0 or math.isnan(baseline) or math.isnan(value):
+        return None
     return 100.0 * (value / baseline - 1.0)

@@ -11,8 +11,9 @@ A trained network comes from one of three places:
 OMN + CoNN, :func:`jaxdc.nets.make_dcg_net`), its parameters and the metadata
 of its training, whatever the source. Every source is checked: a missing or
 damaged file, another problem, an unknown network, or parameters whose
-shapes do not fit the network (another grid size or history length) raise a
-``ValueError`` that names the problem. :meth:`Learned.game` rebuilds the DCG
+shapes do not fit the network (another grid size or history length), or
+parameters holding NaN or infinity, raise a ``ValueError`` that names the file
+and the problem. :meth:`Learned.game` rebuilds the DCG
 of training, with optional changes (energy, strategy set, reward area, ...).
 """
 
@@ -22,6 +23,7 @@ import dataclasses
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from jaxdc import pretrained
 from jaxdc.core.tree_check import check_like
@@ -131,18 +133,30 @@ def _check(name, net, params, meta, source):
                       "was it trained on another grid size or history length?")
 
 
+def check_finite(params, source) -> None:
+    """``ValueError`` naming ``source`` and the first parameters if any parameter is NaN or infinite."""
+    bad = [jax.tree_util.keystr(p) for p, x in jax.tree_util.tree_flatten_with_path(params)[0]
+           if np.issubdtype(np.asarray(x).dtype, np.inexact) and not np.all(np.isfinite(np.asarray(x)))]
+    if bad:
+        raise ValueError(f"{source}: the network parameters hold NaN or infinity (in {', '.join(bad[:3])}"
+                         f"{', ...' if len(bad) > 3 else ''}); the file is damaged or training diverged")
+
+
 def load(path, net: str | None = None) -> Learned:
     """Load a trained DCG network from a parameter file (``.msgpack``) or a ``train.dcg`` run folder.
 
     ``net``, when given, must be the stored network's name (else ``ValueError``;
-    :func:`jaxdc.pretrained.load_trained`).
+    :func:`jaxdc.pretrained.load_trained`). Parameters holding NaN or infinity are refused
+    (:func:`check_finite`).
     """
     def target(name, meta, source):
         return train_state_template(make_network(name, meta.get("history", DEFAULT_SETTING["history"])), meta, source)
 
     name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net)
     module = make_network(name, meta.get("history", DEFAULT_SETTING["history"]))
-    return Learned(name, module, _check(name, module, params, meta, source), meta, source)
+    params = _check(name, module, params, meta, source)
+    check_finite(params, source)
+    return Learned(name, module, params, meta, source)
 
 
 def train_state_template(module, meta: dict, source: str):

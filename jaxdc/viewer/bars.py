@@ -7,7 +7,11 @@
   opponent strategy (ours; the thesis gives no such chart).
 
 Both take the ``results[group][label]`` evaluation dicts of
-:func:`jaxdc.dcg.analysis.experiment.run_experiment` and write a PNG atomically.
+:func:`jaxdc.dcg.analysis.experiment.run_experiment` and write a PNG atomically;
+:func:`bar_chart_png` and :func:`strategy_chart_png` return the same PNG as
+bytes (for a set of files written together, :func:`jaxdc.io.atomic_write_set`).
+A bar whose statistic is undefined (``None``: no episode consumed energy, say)
+is left out.
 """
 
 from __future__ import annotations
@@ -32,20 +36,33 @@ def _axes(width):
     return fig, fig.subplots()
 
 
-def _save(fig, path) -> str:
+def _png(fig) -> bytes:
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
-    return atomic_write(path, buf.getvalue())
+    return buf.getvalue()
 
 
 def save_bar_chart(path, results: dict, groups, col: str, title: str, bounds: dict | None = None,
                    group_labels=None) -> str:
+    """:func:`bar_chart_png` written atomically to ``path``; returns the path."""
+    return atomic_write(path, bar_chart_png(results, groups, col, title, bounds, group_labels))
+
+
+def save_strategy_chart(path, results: dict, title: str) -> str | None:
+    """:func:`strategy_chart_png` written atomically to ``path``; returns the path, ``None`` (nothing written)
+    without networks."""
+    png = strategy_chart_png(results, title)
+    return None if png is None else atomic_write(path, png)
+
+
+def bar_chart_png(results: dict, groups, col: str, title: str, bounds: dict | None = None,
+                  group_labels=None) -> bytes:
     """A bar chart like the thesis' (mean with SD error bars, labelled) of column ``col`` (``"reward"`` or
     ``"rpe"``) of ``results[group][label]``, one bar group per value of ``groups`` (ticked ``group_labels``).
 
     With one group the bars are ticked by network; ``bounds[group]["total"]`` (reward only) is drawn as a
-    dashed line over its group. Returns the path written.
+    dashed line over its group. Returns the PNG's bytes.
     """
     groups = list(groups)
     labels = []
@@ -59,7 +76,7 @@ def save_bar_chart(path, results: dict, groups, col: str, title: str, bounds: di
         xs, ys, es = [], [], []
         for i, g in enumerate(groups):
             r = results[g].get(lb)
-            if r is not None:
+            if r is not None and r[col]["mean"] is not None:
                 xs.append(j if single else i + (j - (len(labels) - 1) / 2) * width)
                 ys.append(r[col]["mean"])
                 es.append(r[col]["sd"])
@@ -82,12 +99,12 @@ def save_bar_chart(path, results: dict, groups, col: str, title: str, bounds: di
     ax.set_ylabel("episode reward" if col == "reward" else "reward per energy")
     ax.set_ylim(bottom=0)
     ax.set_title(title, fontsize=9)
-    return _save(fig, path)
+    return _png(fig)
 
 
-def save_strategy_chart(path, results: dict, title: str) -> str | None:
-    """The episode reward of each network of ``results[label]`` per opponent strategy, with SD error bars;
-    ``None`` (nothing written) without networks."""
+def strategy_chart_png(results: dict, title: str) -> bytes | None:
+    """The episode reward of each network of ``results[label]`` per opponent strategy, with SD error bars, as
+    PNG bytes; ``None`` without networks."""
     labels = list(results)
     if not labels:
         return None
@@ -95,14 +112,16 @@ def save_strategy_chart(path, results: dict, title: str) -> str | None:
     fig, ax = _axes(max(6.0, 0.55 * len(labels) * len(strategies) + 2))
     width = 0.8 / len(labels)
     for j, lb in enumerate(labels):
-        xs = [i + (j - (len(labels) - 1) / 2) * width for i in range(len(strategies))]
         ps = results[lb]["per_strategy"]
-        bars = ax.bar(xs, [ps[s]["reward"]["mean"] for s in strategies], width,
-                      yerr=[ps[s]["reward"]["sd"] for s in strategies], capsize=3, label=lb, color=COLORS[j % 10])
+        shown = [i for i, s in enumerate(strategies) if s in ps and ps[s]["reward"]["mean"] is not None]
+        xs = [i + (j - (len(labels) - 1) / 2) * width for i in shown]
+        bars = ax.bar(xs, [ps[strategies[i]]["reward"]["mean"] for i in shown], width,
+                      yerr=[ps[strategies[i]]["reward"]["sd"] for i in shown], capsize=3, label=lb,
+                      color=COLORS[j % 10])
         ax.bar_label(bars, fmt="%.2f", fontsize=7, padding=2)
     ax.set_xticks(range(len(strategies)), strategies)
     ax.set_ylabel("episode reward")
     ax.set_ylim(bottom=0)
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=7, ncol=min(len(labels), 3))
-    return _save(fig, path)
+    return _png(fig)

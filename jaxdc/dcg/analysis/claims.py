@@ -108,7 +108,7 @@ def clearly_above(results_a, group_a, lab_a, results_b, group_b, lab_b, col="rew
     """Whether bar a's mean exceeds bar b's by more than ``k`` standard errors of the difference
     (independent games); ``None`` if either bar is missing. A bar without an episode count counts as exact."""
     a, b = results_a.get(group_a, {}).get(lab_a), results_b.get(group_b, {}).get(lab_b)
-    if a is None or b is None:
+    if a is None or b is None or a[col]["mean"] is None or b[col]["mean"] is None:
         return None
     var = sum(x[col]["sd"] ** 2 / x["episodes"] for x in (a, b) if x.get("episodes"))
     return a[col]["mean"] - b[col]["mean"] > k * math.sqrt(var)
@@ -125,8 +125,9 @@ def find(results, group, net, alpha=None):
 
 
 def best(results, group, col="reward", key=max):
-    """The label of the bar with the highest (``key=max``) non-NaN mean of ``col``, ``None`` without bars."""
-    row = {lb: s[col]["mean"] for lb, s in results.get(group, {}).items() if not math.isnan(s[col]["mean"])}
+    """The label of the bar with the highest (``key=max``) defined mean of ``col``, ``None`` without bars."""
+    row = {lb: s[col]["mean"] for lb, s in results.get(group, {}).items()
+           if s[col]["mean"] is not None and not math.isnan(s[col]["mean"])}
     return key(row, key=row.get) if row else None
 
 
@@ -167,7 +168,8 @@ def rpe_leaders(bars, claim, _):
     """Whether the networks of ``claim.nets`` have the best RPEs, in that order."""
     r = bars.results
     leaders = _labels(bars, claim)
-    rank = sorted(r.get(None, {}), key=lambda lb: -r[None][lb]["rpe"]["mean"])
+    rpe = {lb: s["rpe"]["mean"] for lb, s in r.get(None, {}).items()}
+    rank = sorted(rpe, key=lambda lb: (rpe[lb] is None, -(rpe[lb] or 0.0)))  # an undefined RPE ranks last
     return Measured(None if None in leaders else rank[: len(leaders)] == leaders, " > ".join(rank) or "n/a")
 
 

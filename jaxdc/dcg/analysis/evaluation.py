@@ -19,6 +19,12 @@ import jax
 
 from jaxdc.dcg.evaluate import evaluate_network, summarize
 from jaxdc.dcg.exact.one_item import full_information_bound
+from jaxdc.io import unlimited_to_json
+
+
+def fraction(reward, bound):
+    """``reward / bound``; ``None`` when either is undefined (``None``) or the bound is not positive."""
+    return None if reward is None or bound is None or not bound > 0 else reward / bound
 
 
 class ExactBounds:
@@ -39,10 +45,14 @@ def evaluate(learned, *, episodes, seed, energy=None, strategies=None, reward_ar
              greedy=False, rpe_zero="exclude", bound=True, bounds: ExactBounds | None = None) -> dict:
     """The section-5.5 statistics of ``learned`` in its game with the given changes, as one JSON-able dict.
 
-    ``None`` keeps a setting as trained. With ``reward_area`` and ``bound``, the exact bound of that game
-    (from ``bounds`` when given) and each reward's fraction of it are added.
+    ``None`` keeps a setting as trained. Unlimited energy is recorded as ``"inf"``
+    (:func:`jaxdc.io.unlimited_to_json`); an undefined statistic is ``None`` with its reason. With
+    ``reward_area`` and ``bound``, the exact bound of that game (from ``bounds`` when given, solved before any
+    game is played) and each reward's fraction of it are added.
     """
     env, params = learned.game(energy=energy, strategies=strategies, reward_area=reward_area, max_steps=max_steps)
+    # the bound first: a game it cannot solve (too big for the memory) is refused before any game is played
+    b = (bounds or ExactBounds())(env, params) if reward_area is not None and bound else None
     t0 = time.perf_counter()
     final = evaluate_network(env, params, learned.net, learned.params, jax.random.PRNGKey(seed), episodes, greedy)
     jax.block_until_ready(final)
@@ -52,15 +62,13 @@ def evaluate(learned, *, episodes, seed, energy=None, strategies=None, reward_ar
     out["alpha"] = learned.metadata.get("alpha")
     out["source"] = os.path.relpath(learned.source) if os.path.exists(learned.source) else learned.source
     out["setting"] = {"grid_size": env.grid_size, "total_reward": env.total_reward,
-                      "energy": float(params.max_energy), "max_steps": int(params.max_steps),
+                      "energy": unlimited_to_json(float(params.max_energy)), "max_steps": int(params.max_steps),
                       "strategies": list(env.strategies), "reward_area": reward_area,
                       "history": learned.setting()["history"], "trained_steps": learned.steps}
     out["seed"], out["greedy"] = seed, bool(greedy)
-    if reward_area is not None and bound:
-        b = (bounds or ExactBounds())(env, params)
+    if b is not None:
         out["bound"] = {"total": b["total"], "per_strategy": b["per_strategy"]}
-        out["fraction_of_bound"] = out["reward"]["mean"] / b["total"] if b["total"] > 0 else None
+        out["fraction_of_bound"] = fraction(out["reward"]["mean"], b["total"])
         for name, s in out["per_strategy"].items():
-            v = b["per_strategy"].get(name)
-            s["fraction_of_bound"] = s["reward"]["mean"] / v if v else None
+            s["fraction_of_bound"] = fraction(s["reward"]["mean"], b["per_strategy"].get(name))
     return out

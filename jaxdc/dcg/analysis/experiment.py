@@ -21,9 +21,10 @@ import jax
 from jaxdc import pretrained
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis.cache import EvaluationCache
-from jaxdc.dcg.analysis.evaluation import ExactBounds, evaluate
+from jaxdc.dcg.analysis.evaluation import ExactBounds, evaluate, fraction
 from jaxdc.dcg.analysis.figures import Experiment, select
 from jaxdc.dcg.exact.many_items import sampled_bound
+from jaxdc.io import unlimited_to_json
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,6 +48,10 @@ class ExperimentResults:
     results: dict
     bounds: dict
     notes: dict
+
+
+def _num(x, digits: int) -> str:
+    return "—" if x is None else f"{x:.{digits}f}"
 
 
 def group_key(g) -> str:
@@ -100,7 +105,7 @@ def run_experiment(exp: Experiment, pool: dict, folder: str, settings: Experimen
             if entry.note:
                 notes[entry.label] = entry.note
             progress(f"  {exp.group_name + ' ' + group_key(g) if g is not None else exp.name}: {entry.label:16s} "
-                     f"reward {r['reward']['mean']:.3f}  RPE {r['rpe']['mean']:.4f}  ({r['seconds']:.1f} s)")
+                     f"reward {_num(r['reward']['mean'], 3)}  RPE {_num(r['rpe']['mean'], 4)}  ({r['seconds']:.1f} s)")
     if exp.game_bound and settings.bound and results.get(None):
         first = next(iter(results[None].values()))["file"]
         learned = loaded.get(first) or learned_lib.load(os.path.join(folder, first + ".msgpack"))
@@ -110,7 +115,7 @@ def run_experiment(exp: Experiment, pool: dict, folder: str, settings: Experimen
             progress(f"  {exp.name}: full-information bound {b['total']:.3f} ± {b['se']:.3f} "
                      f"({b['episodes']} games)")
             for r in results[None].values():
-                r["fraction_of_bound"] = r["reward"]["mean"] / b["total"] if b["total"] > 0 else None
+                r["fraction_of_bound"] = fraction(r["reward"]["mean"], b["total"])
     return ExperimentResults(results, bounds, notes)
 
 
@@ -119,7 +124,7 @@ def game_bound(learned, episodes: int, cache: EvaluationCache) -> dict | None:
     ``learned`` was trained on, over ``episodes`` games of ``PRNGKey(0)``; stored in ``cache`` per game.
     ``None`` where the search does not apply to the game (``NotImplementedError``)."""
     env, params = learned.game()
-    game = {"env": repr(env), "energy": float(params.max_energy), "max_steps": int(params.max_steps),
+    game = {"env": repr(env), "energy": unlimited_to_json(float(params.max_energy)), "max_steps": int(params.max_steps),
             "chase_tie": int(params.chase_tie), "episodes": episodes, "key": 0}
     stored = cache.load(None, game)
     if stored is not None:

@@ -20,9 +20,26 @@ from jaxdc.dcg.analysis.claims import Verdict
 from jaxdc.dcg.analysis.experiment import ExperimentResults, group_key
 from jaxdc.dcg.analysis.figures import Experiment
 from jaxdc.dcg.opponents import DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES
+from jaxdc.io import unlimited_to_json
 
 
 # -- one evaluation -------------------------------------------------------------------------------
+#: How the text reports show a statistic that is undefined (``null`` in JSON, an empty CSV cell).
+UNDEFINED = "—"
+
+
+def _mean_sd(stat: dict, digits: int) -> str:
+    """``mean ± sd`` with ``digits`` decimals, or :data:`UNDEFINED` (with its reason) when there is no mean."""
+    if stat["mean"] is None:
+        return UNDEFINED + (f" ({stat['undefined']})" if stat.get("undefined") else "")
+    return f"{stat['mean']:.{digits}f} ± {stat['sd']:.{digits}f}"
+
+
+def _setting_text(x) -> str:
+    """An energy setting in a file name: ``15``, ``inf`` (JSON writes unlimited energy as ``"inf"``)."""
+    return x if isinstance(x, str) else f"{x:g}"
+
+
 def result_name(r: dict) -> str:
     """The file name of an evaluation: ``eval_<net>[_a<alpha>]_e<energy>_<set>[_area<S>][_greedy]_s<seed>.json``."""
     s = r["setting"]
@@ -31,7 +48,7 @@ def result_name(r: dict) -> str:
     parts = [f"eval_{r['net']}"]
     if r["net"] == "emnn" and r.get("alpha") is not None:
         parts.append(f"a{r['alpha']:g}")
-    parts += [f"e{s['energy']:g}", sets]
+    parts += [f"e{_setting_text(s['energy'])}", sets]
     if s["reward_area"] is not None:
         parts.append(f"area{s['reward_area']}")
     if r["greedy"]:
@@ -42,11 +59,11 @@ def result_name(r: dict) -> str:
 
 def _line(r: dict, bound: float | None) -> str:
     acc = r["opponent_accuracy"]
-    text = (f"reward {r['reward']['mean']:.3f} ± {r['reward']['sd']:.3f}   RPE {r['rpe']['mean']:.4f} ± "
-            f"{r['rpe']['sd']:.4f}   steps {r['steps']['mean']:.1f}")
+    steps = UNDEFINED if r["steps"]["mean"] is None else f"{r['steps']['mean']:.1f}"
+    text = f"reward {_mean_sd(r['reward'], 3)}   RPE {_mean_sd(r['rpe'], 4)}   steps {steps}"
     if acc is not None:
         text += f"   opponent accuracy {100 * acc:.1f}%"
-    if r.get("fraction_of_bound") is not None:
+    if r.get("fraction_of_bound") is not None and bound is not None:
         text += f"   {100 * r['fraction_of_bound']:.1f}% of the bound {bound:.4f}"
     return text
 
@@ -64,7 +81,8 @@ def report(r: dict) -> str:
 
 # -- one figure -----------------------------------------------------------------------------------
 def figure_csv(results: dict) -> str:
-    """One CSV row per bar and strategy (``all`` first) of ``results[group][label]``."""
+    """One CSV row per bar and strategy (``all`` first) of ``results[group][label]``; an undefined statistic
+    (``None``) is an empty cell."""
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(["group", "network", "strategy", "episodes", "reward_mean", "reward_sd", "rpe_mean", "rpe_sd",
@@ -93,13 +111,13 @@ def figure_markdown(exp: Experiment, data: ExperimentResults, verdicts: list[Ver
         for lb, r in row.items():
             acc = r["opponent_accuracy"]
             cells = ([group_key(g)] if exp.group_name else []) + [
-                lb, f"{r['reward']['mean']:.3f} ± {r['reward']['sd']:.3f}",
-                f"{r['rpe']['mean']:.4f} ± {r['rpe']['sd']:.4f}", "—" if acc is None else f"{100 * acc:.1f}%"]
+                lb, _mean_sd(r["reward"], 3), _mean_sd(r["rpe"], 4), "—" if acc is None else f"{100 * acc:.1f}%"]
             if data.bounds:
                 b = data.bounds.get(g)
                 fr = r.get("fraction_of_bound")
                 cells.append("—" if b is None else f"{b['total']:.4f} / " + ("—" if fr is None else f"{100 * fr:.1f}%"))
-            cells += [f"{r['per_strategy'][s]['reward']['mean']:.3f}" if s in r["per_strategy"] else "—"
+            cells += [f"{r['per_strategy'][s]['reward']['mean']:.3f}"
+                      if s in r["per_strategy"] and r["per_strategy"][s]["reward"]["mean"] is not None else "—"
                       for s in exp.strategies]
             cells.append(r["note"] or "")
             lines.append("| " + " | ".join(cells) + " |")
@@ -127,7 +145,7 @@ def optimum_payload(res: dict, env, *, energy: float, max_steps: int, chase_tie:
     become a histogram)."""
     res = dict(res)
     rewards = res.pop("rewards")
-    return {"optimum": res, "env": repr(env), "energy": energy, "max_steps": max_steps,
+    return {"optimum": res, "env": repr(env), "energy": unlimited_to_json(energy), "max_steps": max_steps,
             "chase_tie": chase_tie, "seed": seed,
             "reward_histogram": {f"{v:g}": int(c) for v, c in zip(*np.unique(rewards, return_counts=True))},
             "command": command}

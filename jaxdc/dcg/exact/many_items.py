@@ -39,6 +39,7 @@ from typing import NamedTuple
 import jax
 import numpy as np
 
+from jaxdc.core.memory import check_fits, tree_bytes
 from jaxdc.core.validate import check_positive_int
 from jaxdc.dcg.exact import one_item
 
@@ -176,9 +177,13 @@ def sampled_bound(env, params, key, episodes: int, progress: bool = False) -> di
     Returns ``{"mean", "se", "sd",
     "per_strategy": {name: {"mean", "se", "episodes"}}, "episodes",
     "item_cells_mean", "seconds", "rewards"}`` where ``rewards`` is the
-    ``[episodes]`` array of per-game optima.
+    ``[episodes]`` array of per-game optima. ``MemoryError`` (before any work) when the ``episodes``
+    initial states do not fit in memory.
     """
     check_positive_int("episodes", episodes)
+    one = jax.eval_shape(env.reset_env, jax.random.PRNGKey(0), params)
+    check_fits(2 * episodes * tree_bytes(one), f"the initial states of {episodes} sampled games",
+               "the number of games (episodes)")
     t0 = _time.perf_counter()
     machines = opponent_machines(env, params)
     _, states = jax.jit(jax.vmap(env.reset_env, in_axes=(0, None)))(jax.random.split(key, episodes), params)

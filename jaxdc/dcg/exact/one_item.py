@@ -59,6 +59,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdc.core import grid
+from jaxdc.core.memory import check_fits
 from jaxdc.dcg.opponents import CHASE_TIES, OpponentState
 
 #: Earliest-collection step of an item that cannot be collected within the step cap.
@@ -300,6 +301,8 @@ def _search(env, energy: float, max_steps: int, nxt, opos):
     nb, width = opos.shape
     shape = (nb, c, levels, width)
     size = int(np.prod(shape))
+    check_fits(10 * size, f"the exact search over {size:,} states ({levels:,} energy levels)",
+               "the energy (or make it unlimited)")  # parent int64, action int8, seen bool per state
     parent = np.full(size, -1, np.int64)
     action = np.zeros(size, np.int8)
     seen = np.zeros(size, bool)
@@ -358,7 +361,8 @@ def solve(env, params) -> Solution:
     ``opponent_start``, ``patrol_target``, ``strategies``), ``params`` one
     scalar :class:`EnvParams` with a whole (or infinite) ``max_energy`` and a
     deterministic ``chase_tie``; ``grid_size <= MAX_GRID_SIZE``. Raises
-    ``ValueError`` otherwise.
+    ``ValueError`` otherwise, and ``MemoryError`` (before allocating) when the
+    search's state table does not fit in memory.
     """
     if env.grid_size > MAX_GRID_SIZE:
         raise ValueError(f"grid_size must be <= {MAX_GRID_SIZE} for the exact bound, got {env.grid_size}")
