@@ -60,6 +60,7 @@ from jaxdc.dcp.table_learner import check_learner, shipped_learner
 from jaxdc.dcp.table_results import markdown_table, table_markdown_file, table_payload
 from jaxdc.dcp.tables import TABLES, TableSpec, incr_rows
 from jaxdc.io import atomic_write_set, check_output_folder, enable_compilation_cache, json_text
+from jaxdc.provenance import provenance
 
 PROG = "python -m eval.dcp"
 #: Where ``--table`` writes its results unless ``--out`` is given.
@@ -219,7 +220,8 @@ def write_table(settings: EvalDCPSettings, rows: dict, incr: dict, table: str) -
     the JSON's path."""
     spec = settings.table
     path = os.path.join(settings.out, f"table_{spec.name}.json")
-    payload = json_text(table_payload(spec, settings.command, rows, incr, settings.learned)) + "\n"
+    record = {**table_payload(spec, settings.command, rows, incr, settings.learned), "provenance": provenance()}
+    payload = json_text(record) + "\n"
     atomic_write_set({path: payload,
                       os.path.join(settings.out, f"table_{spec.name}.md"):
                           table_markdown_file(spec, settings.command, table)})

@@ -32,6 +32,7 @@ from jaxdc.drp.tours import BUILDERS
 from jaxdc.drp.world import COORD_MAX, MAX_NODES, VALUE_MAX
 from jaxdc.io import atomic_write, atomic_write_set, check_output_folder, check_output_path, \
     enable_compilation_cache, json_text
+from jaxdc.provenance import provenance
 
 PROG = "python -m eval.drp"
 
@@ -233,7 +234,7 @@ def run_plan(s: PlanSettings) -> int:
     D, beta, psi = graph_arrays([graph])
     (reward, tours), = solve_instances(s.builder, s.clustering, D, beta, psi, [0], [graph.alpha])
     result = {"expected_reward": float(reward), "robots": len(tours), "tours": tours}
-    text = json_text(result, indent=None)
+    text = json_text({**result, "provenance": provenance()}, indent=None)
     name = os.path.splitext(os.path.basename(s.graph))[0]
     plan_path = os.path.join(s.out, f"plan_{name}_{s.builder}_{s.clustering}.json")
     if not s.draw:
@@ -308,7 +309,7 @@ def run_figure(s: FigureSettings) -> int:
     files = {}
     if stored is None:
         stored = _compute_experiment(s)
-        files[data_path] = json_text(stored, indent=None)
+        files[data_path] = json_text({**stored, "provenance": provenance()}, indent=None)
         files[data_path[:-5] + ".csv"] = rows_csv(stored["rows"])
     png = os.path.join(s.out, f"fig{s.figure.replace('.', '_')}_{s.tag}.png")
     buf = io.BytesIO()
@@ -332,7 +333,7 @@ def run_gaps(s: GapsSettings) -> int:
 
     rows = optimality_gaps(gap_graphs(s.graphs, s.nodes, s.size, list(s.alphas), s.base, s.seed), quiet=s.quiet)
     out = {"config": {"graphs": s.graphs, "nodes": s.nodes, "size": s.size, "alphas": list(s.alphas),
-                      "base": s.base, "seed": s.seed}, "rows": rows}
+                      "base": s.base, "seed": s.seed}, "rows": rows, "provenance": provenance()}
     atomic_write(os.path.join(s.out, f"gaps_n{s.nodes}_g{s.graphs}.json"), json_text(out, indent=1))
     for r in rows:
         if r["mean_ratio"] is None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import threading
 import sys
 import time
 
@@ -37,16 +38,23 @@ def builder_groups(builders, workers):
 
 @contextlib.contextmanager
 def _children_ignore_ctrl_c():
-    """Block SIGINT in this thread while worker processes start: they inherit the blocked mask and never see
-    a Ctrl-C sent to the whole process group; the parent still gets it (through another thread, or when the
-    block ends) and stops them (no tracebacks from the children)."""
-    can = hasattr(signal, "pthread_sigmask") and os.name == "posix"
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if can else None
+    """Start worker processes that never see a Ctrl-C sent to the whole process group.
+
+    While the block runs, SIGINT is ignored (a disposition that survives ``exec``, so the spawned
+    interpreters start with it ignored and keep it) and blocked in this thread (so that a Ctrl-C
+    arriving meanwhile stays pending instead of being lost). On exit the handler is restored first,
+    then the mask, so the parent still receives a pending Ctrl-C and stops the children."""
+    main = threading.current_thread() is threading.main_thread()
+    can_mask = hasattr(signal, "pthread_sigmask") and os.name == "posix"
+    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if can_mask else None
+    old_handler = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
     try:
         yield
     finally:
-        if can:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        if main:
+            signal.signal(signal.SIGINT, old_handler)
+        if can_mask:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
 
 
 def _stop_children():
