@@ -65,7 +65,8 @@ from benchmarks.env_throughput import make_env  # noqa: E402
 from jaxdc.agents import a2c  # noqa: E402
 from jaxdc.core.paths import safest_paths  # noqa: E402
 from jaxdc.dcp import navigators  # noqa: E402
-from jaxdc.io import atomic_write, atomic_write_json  # noqa: E402
+from jaxdc.cli.args import positive_float, positive_int  # noqa: E402
+from jaxdc.io import atomic_write_json, atomic_write_set, check_output_folder, json_text  # noqa: E402
 from jaxdc.nets import make_net  # noqa: E402
 
 DEFAULT_ENVS = (16, 64, 256)
@@ -512,18 +513,22 @@ def markdown(result: dict) -> str:
 def parse_args(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
-    p.add_argument("--envs", type=int, nargs="+", default=list(DEFAULT_ENVS), help="numbers of environments")
+    p.add_argument("--envs", type=positive_int("--envs"), nargs="+", default=list(DEFAULT_ENVS),
+                   help="numbers of environments")
     p.add_argument("--nets", nargs="+", choices=NETS, default=list(NETS))
     p.add_argument("--layouts", nargs="+", choices=LAYOUTS, default=list(LAYOUTS))
-    p.add_argument("--scan-envs", type=int, nargs="+", default=None,
+    p.add_argument("--scan-envs", type=positive_int("--scan-envs"), nargs="+", default=None,
                    help="run the scan layout only at these numbers of environments (default: all of --envs)")
-    p.add_argument("--chunk-steps", type=int, default=65_536, help="env-steps per timed jaxdc chunk")
-    p.add_argument("--sb3-chunk-steps", type=int, default=4096, help="env-steps per timed SB3 chunk (>= 1 update)")
+    p.add_argument("--chunk-steps", type=positive_int("--chunk-steps"), default=65_536,
+                   help="env-steps per timed jaxdc chunk")
+    p.add_argument("--sb3-chunk-steps", type=positive_int("--sb3-chunk-steps"), default=4096,
+                   help="env-steps per timed SB3 chunk (>= 1 update)")
     p.add_argument("--sb3-vec-envs", nargs="+", choices=SB3_VEC_ENVS, default=list(SB3_VEC_ENVS),
                    help="SB3's vectorized env: dummy (make_vec_env, per-env calls), jaxvec (one batched call)")
-    p.add_argument("--repeats", type=int, default=2, help="timed chunks per row, best taken")
-    p.add_argument("--cpu-gflops", type=float, default=70.0, help="assumed CPU FLOP rate for the ceiling")
-    p.add_argument("--ppo-envs", type=int, nargs="*", default=None,
+    p.add_argument("--repeats", type=positive_int("--repeats"), default=2, help="timed chunks per row, best taken")
+    p.add_argument("--cpu-gflops", type=positive_float("--cpu-gflops"), default=70.0,
+                   help="assumed CPU FLOP rate for the ceiling")
+    p.add_argument("--ppo-envs", type=positive_int("--ppo-envs"), nargs="*", default=None,
                    help="numbers of environments of the PPO-style ENN rows (default 32; none given: no PPO row)")
     p.add_argument("--no-sb3", dest="sb3", action="store_false", help="skip Stable-Baselines3")
     p.add_argument("--no-dcg", dest="dcg", action="store_false", help="skip the DCG OMN+CoNN row")
@@ -543,6 +548,10 @@ def parse_args(argv=None):
             p.error(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
     if not args.cpu_gflops > 0:
         p.error(f"--cpu-gflops must be > 0, got {args.cpu_gflops}")
+    try:
+        check_output_folder(args.out_dir, "--out-dir")
+    except ValueError as e:
+        p.error(str(e))
     if args.quick:
         args.repeats, args.chunk_steps, args.sb3_chunk_steps, args.dcg = 1, 1, 1, False
     if args.sb3 and args.sb3_child is None and not sb3_available():
@@ -555,18 +564,18 @@ def main(argv=None) -> dict:
     args = parse_args(argv)
     if args.sb3_child:  # internal: one SB3 row in this (fresh) interpreter
         row = sb3_child(args.envs[0], args.sb3_child, args.sb3_vec_envs[0], args.sb3_chunk_steps, args.repeats)
-        print(json.dumps(row))
+        print(json_text(row, indent=None))
         return row
     cmd = "python benchmarks/train_throughput.py " + " ".join(sys.argv[1:] if argv is None else argv)
     log(f"$ {cmd}")
     result = run(args)
     result["command"] = cmd.strip()
     md = f"`{result['command']}`\n\n" + markdown(result)
-    atomic_write_json(args.out_dir / "train_throughput.json", result)
-    atomic_write(args.out_dir / "train_throughput.md", md + "\n")
+    atomic_write_set({args.out_dir / "train_throughput.json": json_text(result) + "\n",
+                      args.out_dir / "train_throughput.md": md + "\n"})
     (args.out_dir / "train_throughput.partial.json").unlink(missing_ok=True)
     if args.json:
-        print(json.dumps(result))
+        print(json_text(result, indent=None))
         log(md)
     else:
         print(md)
@@ -574,4 +583,6 @@ def main(argv=None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    from jaxdc.cli.runner import run as run_cli
+
+    sys.exit(run_cli(lambda argv: main(argv) and 0, "python benchmarks/train_throughput.py"))

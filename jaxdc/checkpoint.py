@@ -14,7 +14,12 @@ checkpoints intact.
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
+import sys
+import time
+from typing import Any
 
 import jax
 import numpy as np
@@ -42,8 +47,20 @@ def steps(directory) -> list[int]:
     """The checkpoint steps in ``directory`` (empty if there is none or no folder)."""
     if not os.path.isdir(os.fspath(directory)):
         return []
-    with _manager(directory) as mngr:
+    with _absl_quiet(), _manager(directory) as mngr:
         return sorted(mngr.all_steps())
+
+
+@contextlib.contextmanager
+def _absl_quiet():
+    """Hold back orbax's log lines about a damaged step (the ``ValueError`` of the caller says it once)."""
+    absl = logging.getLogger("absl")
+    level = absl.level
+    absl.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        absl.setLevel(level)
 
 
 def latest_step(directory) -> int | None:
@@ -55,10 +72,11 @@ def read_metadata(directory, step: int | None = None) -> dict:
     """The metadata of checkpoint ``step`` (default: the latest)."""
     step = _pick(directory, step)
     try:
-        with _manager(directory) as mngr:
+        with _absl_quiet(), _manager(directory) as mngr:
             return dict(mngr.restore(step, args=ocp.args.Composite(metadata=ocp.args.JsonRestore())).metadata)
     except Exception as e:  # orbax raises many types for a damaged folder
-        raise ValueError(f"checkpoint {directory} step {step}: metadata unreadable (corrupt?): {e}") from e
+        raise ValueError(f"checkpoint {directory} step {step}: metadata unreadable (corrupt?): {_first_line(e)}") \
+            from None
 
 
 def restore(directory, target, expected: dict | None = None, step: int | None = None, upgrade=None):
@@ -74,20 +92,61 @@ def restore(directory, target, expected: dict | None = None, step: int | None = 
     metadata = read_metadata(directory, step)
     if upgrade is not None:
         metadata = upgrade(metadata)
-    mismatched = {k: (metadata.get(k, "<missing>"), v) for k, v in (expected or {}).items()
-                  if _jsonish(metadata.get(k, "<missing>")) != _jsonish(v)}
+    mismatched = [d for k, v in (expected or {}).items()
+                  for d in _differences(k, metadata.get(k, _MISSING), v)]
     if mismatched:
-        what = "; ".join(f"{k}: checkpoint has {a!r}, expected {b!r}" for k, (a, b) in mismatched.items())
+        what = "; ".join(f"{k}: checkpoint has {_show(a)}, this run has {_show(b)}" for k, a, b in mismatched)
         raise ValueError(f"checkpoint {directory} step {step} does not fit this run ({what})")
     template = serialization.to_state_dict(jax.device_get(target))
     try:
         with _manager(directory) as mngr:
             tree = mngr.restore(step, args=ocp.args.Composite(state=ocp.args.StandardRestore())).state
     except Exception as e:
-        raise ValueError(f"checkpoint {directory} step {step}: state unreadable (corrupt?): {e}") from e
+        _settle_failed_restore()
+        raise ValueError(f"checkpoint {directory} step {step}: state unreadable (corrupt?): {_first_line(e)}") \
+            from None
     _check_state(tree, template, f"checkpoint {directory} step {step}")
     tree = jax.tree_util.tree_map(lambda t, x: np.asarray(x, dtype=np.asarray(t).dtype), template, tree)
     return serialization.from_state_dict(target, tree), metadata
+
+
+#: How long a failed restore waits for orbax's outstanding reads to finish (seconds of quiet, at most).
+_QUIET_S, _SETTLE_MAX_S = 0.3, 5.0
+
+
+class _Sink:
+    """A stand-in ``sys.stderr`` that swallows and timestamps what is written to it."""
+
+    def __init__(self):
+        self.last = time.monotonic()
+
+    def write(self, text):
+        self.last = time.monotonic()
+        return len(text)
+
+    def flush(self):
+        pass
+
+
+def _settle_failed_restore() -> None:
+    """After a failed restore, let orbax's other outstanding array reads finish while their
+    ``RuntimeError: Event loop is closed`` reports (printed from background threads, since orbax's event
+    loop closed with the first error) are swallowed, so the caller's one clear error is all that is shown."""
+    sink, previous, previous_hook = _Sink(), sys.stderr, sys.unraisablehook
+    sys.stderr = sink
+    sys.unraisablehook = lambda unraisable: sink.write("unraisable")  # the reports arrive as unraisable errors
+    start = time.monotonic()
+    try:
+        while time.monotonic() - sink.last < _QUIET_S and time.monotonic() - start < _SETTLE_MAX_S:
+            time.sleep(0.05)
+    finally:
+        sys.stderr, sys.unraisablehook = previous, previous_hook
+
+
+def _first_line(e: BaseException) -> str:
+    """An error's first line, without tensorstore's spec dump."""
+    text = str(e).split("\n")[0]
+    return text.split(" [tensorstore_spec=")[0]
 
 
 def _pick(directory, step):
@@ -99,6 +158,21 @@ def _pick(directory, step):
     if step not in available:
         raise ValueError(f"checkpoint step {step} not in {directory} (available: {available})")
     return int(step)
+
+
+_MISSING = "<missing>"
+
+
+def _show(x) -> str:
+    return x if x is _MISSING else repr(x)
+
+
+def _differences(key: str, stored, wanted) -> list[tuple[str, Any, Any]]:
+    """``(key path, stored, wanted)`` of each entry that differs; dicts are compared key by key."""
+    if isinstance(stored, dict) and isinstance(wanted, dict):
+        return [d for k in list(stored) + [k for k in wanted if k not in stored]
+                for d in _differences(f"{key}.{k}", stored.get(k, _MISSING), wanted.get(k, _MISSING))]
+    return [] if _jsonish(stored) == _jsonish(wanted) else [(key, stored, wanted)]
 
 
 def _jsonish(x):

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 from typing import Any
 
@@ -29,7 +30,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import serialization
 
-from jaxdc.io import atomic_write, atomic_write_json
+from jaxdc.core.validate import is_int
+from jaxdc.io import atomic_write_set, json_text
 from jaxdc.training.metadata import FORMAT, upgrade
 
 ASSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "assets")
@@ -56,37 +58,91 @@ def _paths(path) -> tuple[str, str]:
     return stem + ".msgpack", stem + ".json"
 
 
+def non_finite_leaf(params) -> str | None:
+    """The ``/``-joined path of the first parameter array holding a NaN or an infinity, or ``None``."""
+    flat = jax.tree_util.tree_flatten_with_path(params)[0]
+    for path, leaf in flat:
+        a = np.asarray(leaf)
+        if np.issubdtype(a.dtype, np.inexact) and not np.all(np.isfinite(a)):
+            return "/" + "/".join(str(getattr(k, "key", getattr(k, "idx", k))) for k in path)
+    return None
+
+
 def save(path, params, metadata: dict) -> str:
     """Write ``params`` and ``metadata`` (JSON-able; must name ``net`` and ``problem``) atomically.
 
-    Returns the ``.msgpack`` path. The sidecar is written after the parameters,
-    so a file pair whose sidecar exists is complete; it records the current
-    ``"format"`` (:data:`jaxdc.training.metadata.FORMAT`).
+    Returns the ``.msgpack`` path. Both files are serialised first (the
+    metadata as strict JSON, the parameters refused if any holds a NaN or an
+    infinity), then land together (:func:`jaxdc.io.atomic_write_set`), so an
+    error or an interruption leaves the old pair or the complete new one. The
+    sidecar records the current ``"format"`` (:data:`jaxdc.training.metadata.FORMAT`).
     """
     for key in ("net", "problem"):
         if key not in metadata:
             raise ValueError(f"metadata must contain {key!r}, got keys {sorted(metadata)}")
     blob, meta = _paths(path)
     tree = jax.tree_util.tree_map(np.asarray, jax.device_get(params))
-    atomic_write(blob, serialization.msgpack_serialize(serialization.to_state_dict(tree)))
-    atomic_write_json(meta, {"format": FORMAT, **{k: v for k, v in metadata.items() if k != "format"}})
+    bad = non_finite_leaf(tree)
+    if bad is not None:
+        raise ValueError(f"refusing to save {blob}: parameter {bad} holds NaN or infinity")
+    try:
+        meta_text = json_text({"format": FORMAT, **{k: v for k, v in metadata.items() if k != "format"}}) + "\n"
+    except ValueError as e:
+        raise ValueError(f"refusing to save {blob}: its metadata: {e}") from None
+    except TypeError as e:
+        raise ValueError(f"refusing to save {blob}: its metadata is not JSON-able: {e}") from None
+    atomic_write_set({blob: serialization.msgpack_serialize(serialization.to_state_dict(tree)), meta: meta_text})
     return blob
 
 
+def _refuse_constant(name):
+    raise ValueError(f"{name} is not JSON (JSON has no NaN or Infinity)")
+
+
+#: Metadata entries that are counts (ints >= 1, ``seed`` >= 0) and the energy (a number > 0), checked on read.
+_COUNTS = ("grid_size", "total_reward", "max_steps", "steps", "updates", "min_total_reward", "reward_area",
+           "min_reward_area")
+
+
+def check_metadata_values(meta: dict, where: str) -> dict:
+    """``meta`` if its settings have sensible types and ranges; else a ``ValueError`` naming ``where`` and the key."""
+    for key in _COUNTS:
+        v = meta.get(key)
+        if v is not None and (not is_int(v, numpy=False) or v < 1):
+            raise ValueError(f"{where}: metadata {key}={v!r} must be an int >= 1")
+    for key in ("seed", "history"):
+        v = meta.get(key)
+        if v is not None and (not is_int(v, numpy=False) or v < 0):
+            raise ValueError(f"{where}: metadata {key}={v!r} must be an int >= 0")
+    if "energy" in meta:
+        values = meta["energy"] if isinstance(meta["energy"], list) else [meta["energy"]]
+        for v in values:
+            ok = v == "inf" or (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0)
+            if not ok:
+                raise ValueError(f"{where}: metadata energy={meta['energy']!r} must hold numbers > 0 (or \"inf\")")
+    return meta
+
+
 def read_metadata(path) -> dict:
-    """The metadata sidecar of the parameter file ``path``, in the current format."""
+    """The metadata sidecar of the parameter file ``path``, in the current format.
+
+    The sidecar must be strict JSON (no NaN or Infinity) and its settings sensible
+    (:func:`check_metadata_values`); each failure is a ``ValueError`` naming the file (and the key).
+    """
     blob, meta = _paths(path)
     if not os.path.isfile(meta):
         raise ValueError(f"parameter file {blob}: metadata {meta} not found (was it written by jaxdc.pretrained.save?)")
     try:
         with open(meta) as f:
-            stored = json.load(f)
-    except (OSError, json.JSONDecodeError) as e:
-        raise ValueError(f"parameter file {blob}: metadata {meta} unreadable: {e}") from e
+            stored = json.load(f, parse_constant=_refuse_constant)
+    except (OSError, ValueError) as e:
+        raise ValueError(f"parameter file {blob}: metadata {meta} unreadable: {e}") from None
+    if not isinstance(stored, dict):
+        raise ValueError(f"parameter file {blob}: metadata {meta} must be a JSON object, got {type(stored).__name__}")
     try:
-        return upgrade(stored)
+        return check_metadata_values(upgrade(stored), f"parameter file {blob} ({meta})")
     except ValueError as e:
-        raise ValueError(f"parameter file {blob}: {e}") from None
+        raise ValueError(f"parameter file {blob}: {e}" if blob not in str(e) else str(e)) from None
 
 
 def load(path, **expected) -> tuple[dict, dict]:
@@ -94,6 +150,8 @@ def load(path, **expected) -> tuple[dict, dict]:
 
     Every keyword of ``expected`` (e.g. ``net="enn", problem="dcp"``) must equal
     the stored metadata entry, else a ``ValueError`` names the key and both values.
+    Parameters holding a NaN or an infinity are refused (a ``ValueError`` naming
+    the file and the first such parameter).
     """
     blob, _ = _paths(path)
     meta = read_metadata(path)
@@ -104,7 +162,11 @@ def load(path, **expected) -> tuple[dict, dict]:
         with open(blob, "rb") as f:
             params = serialization.msgpack_restore(f.read())
     except Exception as e:  # msgpack raises several types on a damaged file
-        raise ValueError(f"parameter file {blob} unreadable (corrupt or truncated?): {e}") from e
+        raise ValueError(f"parameter file {blob} unreadable (corrupt or truncated?): {e}") from None
+    bad = non_finite_leaf(params)
+    if bad is not None:
+        raise ValueError(f"parameter file {blob}: parameter {bad} holds NaN or infinity; the file is damaged "
+                         "or was saved from a diverged run")
     return params, meta
 
 
@@ -127,12 +189,50 @@ def shipped_names(problem: str) -> list[str]:
     return sorted(f[: -len(".msgpack")] for f in os.listdir(folder) if f.endswith(".msgpack"))
 
 
+def resolve(path, problem: str) -> str:
+    """``path`` itself if it exists (a parameter file, with or without ``.msgpack``, or a run folder); else, for a
+    bare name such as ``enn`` or ``omn_conn_strong``, the shipped file ``jaxdc/assets/<problem>/<name>.msgpack``.
+
+    A bare name that is no shipped network is a ``ValueError`` listing the shipped names.
+    """
+    path = os.fspath(path)
+    blob, _ = _paths(path)
+    if os.path.exists(path) or os.path.isfile(blob):
+        return path
+    name = path[: -len(".msgpack")] if path.endswith(".msgpack") else path
+    if name and os.sep not in name and (os.altsep is None or os.altsep not in name):
+        shipped_path = os.path.join(ASSETS, problem, name + ".msgpack")
+        if os.path.isfile(shipped_path):
+            return shipped_path
+        raise ValueError(f"{path!r} is neither a file, a run folder nor a shipped {problem} network; "
+                         f"shipped: {', '.join(shipped_names(problem))}")
+    return path
+
+
+def _check_finite(params, source: str) -> None:
+    bad = non_finite_leaf(params)
+    if bad is not None:
+        raise ValueError(f"{source}: parameter {bad} holds NaN or infinity; the checkpoint is damaged or "
+                         "was saved from a diverged run")
+
+
+def _naming_source(restore_target, source: str):
+    """``restore_target`` whose ``ValueError``/``TypeError`` (a bad setting in the metadata) names ``source``."""
+    def target(*args):
+        try:
+            return restore_target(*args)
+        except (ValueError, TypeError) as e:
+            raise ValueError(f"{source}: its metadata does not build a network: {e}") from None
+
+    return target
+
+
 def load_trained(path, problem: str, nets, restore_target, net: str | None = None, check_meta=None,
                  run_seed: int | None = None):
     """``(net_name, params, metadata, source)`` of a trained network, from a file or a training run.
 
     ``path`` is a parameter file of :func:`save` (``.msgpack``, suffix
-    optional) or a run folder of ``python -m train.<problem>`` (its
+    optional), a shipped network's name (:func:`resolve`) or a run folder of ``python -m train.<problem>`` (its
     ``checkpoints/`` subfolder, or an orbax checkpoint folder itself; the latest
     step is read). The stored ``problem`` must be ``problem``, the stored
     network one of ``nets`` and, if given, ``net``; ``check_meta(meta, source)``
@@ -145,7 +245,7 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
     """
     from jaxdc import checkpoint
 
-    path = os.fspath(path)
+    path = resolve(path, problem)
     if os.path.isdir(path):
         ckpt = os.path.join(path, "checkpoints")
         ckpt = ckpt if os.path.isdir(ckpt) else path
@@ -153,7 +253,11 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         if not checkpoint.steps(ckpt):
             raise ValueError(f"{source}: no orbax checkpoint found (expected a train.{problem} run folder "
                              "with checkpoints/, or a .msgpack parameter file)")
-        meta = upgrade(dict(checkpoint.read_metadata(ckpt), problem=problem))
+        try:
+            meta = upgrade(dict(checkpoint.read_metadata(ckpt), problem=problem))
+        except ValueError as e:
+            raise ValueError(f"{source}: {e}") from None
+        check_metadata_values(meta, f"{source} (checkpoint metadata)")
     else:
         blob, _ = _paths(path)
         if not os.path.isfile(blob):
@@ -170,6 +274,7 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         raise ValueError(f"{source} holds a {name!r} network, not {net!r}")
     if check_meta is not None:
         check_meta(meta, source)
+    restore_target = _naming_source(restore_target, source)
     seeds = meta.get("seeds")
     if not seeds and run_seed is not None and run_seed != meta.get("seed", run_seed):
         raise ValueError(f"{source} holds the network of seed {meta.get('seed')}, not of run_seed {run_seed}")
@@ -177,6 +282,7 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         if not seeds:
             state, meta = checkpoint.restore(ckpt, restore_target(name, meta, source), {"net": name},
                                              upgrade=upgrade)
+            _check_finite(state.params, source)
             return name, state.params, dict(meta, problem=problem, updates=checkpoint.latest_step(ckpt)), ckpt
         if run_seed not in seeds:
             raise ValueError(f"{source} holds the runs of seeds {seeds}: choose one with run_seed "
@@ -186,6 +292,7 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         state, meta = checkpoint.restore(ckpt, target, {"net": name}, upgrade=upgrade)
         i = seeds.index(run_seed)
         params = jax.tree_util.tree_map(lambda x: x[i], state.params)
+        _check_finite(params, f"{source} (seed {run_seed})")
         meta = {k: v for k, v in meta.items() if k != "seeds"}
         return name, params, dict(meta, seed=run_seed, problem=problem, updates=checkpoint.latest_step(ckpt)), ckpt
     params, meta = load(blob, problem=problem, net=name)

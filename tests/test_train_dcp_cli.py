@@ -110,7 +110,7 @@ def test_bad_arguments(capsys, tmp_path, extra, match):
 def test_bad_folders_and_checkpoints(finished_run, tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
-    _fails(capsys, TINY + ["--out", str(blocker / "run")], "not writable")
+    _fails(capsys, TINY + ["--out", str(blocker / "run")], "cannot be created")
     _fails(capsys, TINY + ["--out", str(tmp_path / "empty"), "--resume"], "no checkpoint found")
     _fails(capsys, TINY + ["--out", finished_run], "already holds checkpoints")
     _fails(capsys, TINY + ["--out", finished_run, "--resume", "--net", "cnn"], "net: checkpoint has 'linear'")

@@ -49,7 +49,7 @@ from flax import struct
 from jaxdc.agents.common import (Network, RunConfig, Trainer, Transition, check_network, heuristics_fn, huber,
                                  lr_schedule, make_optimizer_from, nstep_returns)
 from jaxdc.core.env import step_batch
-from jaxdc.core.validate import check_positive_int
+from jaxdc.core.validate import check_float, check_positive_int
 
 __all__ = ["A2CConfig", "Batch", "TrainState", "Trainer", "Transition", "a2c_loss", "aux_cross_entropy", "huber",
            "lr_schedule", "make_optimizer", "make_policy", "make_train", "nstep_returns"]
@@ -103,15 +103,15 @@ class A2CConfig(RunConfig):
         super().__post_init__()
         for name in ("epochs", "minibatches"):
             check_positive_int(name, getattr(self, name), numpy=False)
-        if self.aux_lr is not None and not self.aux_lr > 0:
-            raise ValueError(f"aux_lr (learning rate of the auxiliary network) must be > 0 or None, got {self.aux_lr!r}")
+        if self.aux_lr is not None:
+            check_float("aux_lr (learning rate of the auxiliary network)", self.aux_lr, low=0.0, low_open=True)
         for name in ("value_coef", "entropy_coef", "aux_coef"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
-        if not 0 <= self.gae_lambda <= 1:
-            raise ValueError(f"gae_lambda must be in [0, 1], got {self.gae_lambda!r}")
-        if self.clip_eps is not None and not 0 < self.clip_eps < 1:
-            raise ValueError(f"clip_eps must be in (0, 1) or None, got {self.clip_eps!r}")
+            check_float(name, getattr(self, name), low=0.0)
+        check_float("gae_lambda", self.gae_lambda, low=0.0, high=1.0)
+        if self.clip_eps is not None:
+            check_float("clip_eps", self.clip_eps, low=0.0, high=1.0, low_open=True)
+            if self.clip_eps == 1.0:
+                raise ValueError(f"clip_eps must be in (0, 1) or None, got {self.clip_eps!r}")
         if self.batch_size % self.minibatches:
             raise ValueError(f"minibatches ({self.minibatches}) must divide num_envs * t_max ({self.batch_size})")
 

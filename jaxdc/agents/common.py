@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from jaxdc.core.validate import check_positive_int
+from jaxdc.core.validate import INT32_MAX, check_float, check_positive_int
 
 
 @runtime_checkable
@@ -96,13 +96,15 @@ class RunConfig:
 
     def __post_init__(self):
         for name in ("total_steps", "num_envs", "t_max", "unroll"):
-            check_positive_int(name, getattr(self, name), numpy=False)
-        if not self.lr > 0:
-            raise ValueError(f"lr (learning rate) must be > 0, got {self.lr!r}")
-        if not 0 <= self.gamma <= 1:
-            raise ValueError(f"gamma must be in [0, 1], got {self.gamma!r}")
-        if self.max_grad_norm is not None and not self.max_grad_norm > 0:
-            raise ValueError(f"max_grad_norm must be > 0 or None, got {self.max_grad_norm!r}")
+            check_positive_int(name, getattr(self, name), numpy=False, high=INT32_MAX)
+        check_float("lr (learning rate)", self.lr, low=0.0, low_open=True)
+        check_float("gamma", self.gamma, low=0.0, high=1.0)
+        for name in ("b1", "b2"):
+            check_float(name, getattr(self, name), low=0.0, high=1.0)
+        if self.max_grad_norm is not None:
+            check_float("max_grad_norm", self.max_grad_norm, low=0.0, low_open=True)
+        if self.reset_slots is not None:
+            check_positive_int("reset_slots", self.reset_slots, numpy=False, high=INT32_MAX)
         if self.total_steps < self.batch_size:
             raise ValueError(
                 f"total_steps ({self.total_steps}) must be >= num_envs * t_max ({self.batch_size}), "

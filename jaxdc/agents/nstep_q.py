@@ -33,7 +33,7 @@ from flax import struct
 from jaxdc.agents.common import (Network, RunConfig, Trainer, Transition, check_network, heuristics_fn, huber,
                                  make_optimizer_from, nstep_returns)
 from jaxdc.core.env import tree_select
-from jaxdc.core.validate import is_int
+from jaxdc.core.validate import INT32_MAX, check_float, is_int
 
 #: Epsilon of the evaluation policy (section 4.5.5).
 EVAL_EPSILON = 0.05
@@ -57,11 +57,9 @@ class QConfig(RunConfig):
     def __post_init__(self):
         super().__post_init__()
         for name in ("eps_start", "eps_end"):
-            if not 0 <= getattr(self, name) <= 1:
-                raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)!r}")
-        if not 0 < self.eps_fraction <= 1:
-            raise ValueError(f"eps_fraction must be in (0, 1], got {self.eps_fraction!r}")
-        if not is_int(self.target_every, numpy=False) or self.target_every < 1:
+            check_float(name, getattr(self, name), low=0.0, high=1.0)
+        check_float("eps_fraction", self.eps_fraction, low=0.0, high=1.0, low_open=True)
+        if not is_int(self.target_every, numpy=False) or not 1 <= self.target_every <= INT32_MAX:
             raise ValueError(f"target_every must be an int >= 1 (environment steps), got {self.target_every!r}")
 
     @property

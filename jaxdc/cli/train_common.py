@@ -13,9 +13,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
 
 from jaxdc.agents.a2c import A2CConfig
-from jaxdc.cli.args import nonnegative_float, positive_float, positive_int, seed_list, unit_interval
+from jaxdc.cli.args import nonnegative_float, positive_float, positive_int, seed, seed_list, unit_interval
+from jaxdc.core.energy import MAX_FINITE_ENERGY
+from jaxdc.io import check_output_folder
 from jaxdc.training.loop import LAYOUTS, RunControl
 
 #: Exit status of a run stopped by a NaN loss.
@@ -42,7 +45,7 @@ def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eva
     d = _DEFAULT
     p.add_argument("--steps", type=positive_int("--steps"), default=d["total_steps"],
                    help="T_max: environment steps in total (the learning rate reaches 0 there)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed("--seed"), default=0, help="seed of the run (0 .. 2**32 - 1)")
     p.add_argument("--seeds", type=seed_list("--seeds"), default=None,
                    help="several independent runs at once (vmapped), e.g. 0,1,2; replaces --seed")
     p.add_argument("--envs", type=positive_int("--envs"), default=d["num_envs"],
@@ -98,3 +101,36 @@ def run_control(args, out: str) -> RunControl:
 def seed_tag(args) -> str:
     """The seeds of a run as they appear in its default folder name (``0``, ``0-1-2``)."""
     return "-".join(map(str, args.seeds or [args.seed]))
+
+
+def training_energy(name: str):
+    """argparse type: an energy budget a training run can use, a finite number in ``(0, 2**24]``.
+
+    An unlimited budget (``inf``) is refused: the trained network would read a constant energy plane and
+    learn nothing about recharging; evaluate with ``eval.dcp``/``eval.dcg`` for unlimited energy.
+    """
+    finite = positive_float(name, high=MAX_FINITE_ENERGY)
+
+    def parse(text):
+        try:
+            if float(text) == float("inf"):
+                raise argparse.ArgumentTypeError(
+                    f"{name} must be a finite number in (0, {MAX_FINITE_ENERGY:g}] for training, got {text!r} "
+                    "(unlimited energy is an evaluation setting: eval.dcp / eval.dcg accept it)")
+        except ValueError:
+            pass
+        return finite(text)
+
+    return parse
+
+
+def check_outputs(out: str, tensorboard: bool = False) -> None:
+    """Refuse, before any work, a run folder (and its ``tb/``) that cannot be created or written."""
+    check_output_folder(out, "--out")
+    if tensorboard:
+        check_output_folder(os.path.join(out, "tb"), "--tensorboard folder")
+
+
+def fmt(x, spec: str = ".3f") -> str:
+    """``x`` formatted with ``spec``, or ``n/a`` for an undefined statistic (``None``)."""
+    return "n/a" if x is None else format(x, spec)

@@ -44,24 +44,30 @@ import shlex
 import sys
 
 from jaxdc.agents.a2c import A2CConfig
+from jaxdc import pretrained
 from jaxdc.cli.args import integer, nonnegative_float, positive_float, positive_int
-from jaxdc.cli.train_common import EXIT_NAN, a2c_settings, add_a2c_arguments, run_control, seed_tag
+from jaxdc.cli.train_common import (EXIT_NAN, a2c_settings, add_a2c_arguments, check_outputs, fmt, run_control,
+                                    seed_tag, training_energy)
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
-from jaxdc.io import enable_compilation_cache
+from jaxdc.io import check_output_path, enable_compilation_cache
 from jaxdc.training.dcg import NETS, DCGRun, DCGSettings
+
+
+#: EMNN's default weight of Eq. 5.1 (section 5.5.2).
+ALPHA = 0.001
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m train.dcg", description=__doc__.split("\n")[0])
     p.add_argument("--net", choices=NETS, default="omn_conn", help="network to train (section 5.4)")
-    p.add_argument("--alpha", type=nonnegative_float("--alpha"), default=0.001,
-                   help="EMNN: weight of the opponent-action cross-entropy (Eq. 5.1; 0.001 or 0.0001)")
+    p.add_argument("--alpha", type=nonnegative_float("--alpha"), default=None,
+                   help="EMNN: weight of the opponent-action cross-entropy (Eq. 5.1; default 0.001, or 0.0001)")
     p.add_argument("--omn-lr", type=positive_float("--omn-lr"), default=None,
                    help="OMN + CoNN: initial learning rate of OMN's parameters, annealed to 0 like --lr by OMN's own "
                         "Adam (default: --lr, Algorithm 12's one update). Not in the thesis")
-    p.add_argument("--energy", type=positive_float("--energy"), default=15.0,
+    p.add_argument("--energy", type=training_energy("--energy"), default=15.0,
                    help="maximum (and initial) energy (15; 10 and 20 in Figs. 5.8-5.9)")
-    p.add_argument("--grid-size", type=integer("--grid-size"), default=5, help="N (>= 2)")
+    p.add_argument("--grid-size", type=integer("--grid-size", low=2), default=5, help="N (>= 2)")
     p.add_argument("--total-reward", type=positive_int("--total-reward"), default=None,
                    help="sum of the item rewards (default 10, section 5.5.1; 1 with --reward-area)")
     p.add_argument("--reward-area", type=positive_int("--reward-area"), default=None, metavar="S",
@@ -72,7 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(one network for every size; beyond the thesis)")
     p.add_argument("--strategies", default=",".join(STANDARD_STRATEGIES),
                    help="comma-separated opponent strategies, one drawn per episode")
-    p.add_argument("--history", type=integer("--history"), default=10,
+    p.add_argument("--history", type=integer("--history", low=1), default=10,
                    help="k, the previous agent planes read by IMNN/EMNN/OMN+CoNN (>= 1; VNN ignores it)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=100, help="episode step cap")
     p.add_argument("--out", default=None, help="run folder (default runs/dcg-NET-eENERGY-sSEED)")
@@ -87,9 +93,13 @@ def settle(args):
     """``(DCGSettings, RunControl)`` of the parsed arguments; a ``ValueError`` names a bad combination."""
     if args.ship is not None and args.seeds is not None and len(args.seeds) > 1:
         raise ValueError(f"--ship writes one network; train one seed (--seed), not --seeds {args.seeds}")
-    aux_coef = args.alpha if args.net == "emnn" else 1.0
+    if args.alpha is not None and args.net != "emnn":
+        raise ValueError(f"--alpha weights EMNN's cross-entropy (Eq. 5.1) and applies to --net emnn only, "
+                         f"not {args.net!r}")
+    alpha = ALPHA if args.alpha is None else args.alpha
+    aux_coef = alpha if args.net == "emnn" else 1.0
     config = A2CConfig(**a2c_settings(args), aux_coef=aux_coef, aux_lr=args.omn_lr)
-    settings = DCGSettings(net=args.net, config=config, alpha=args.alpha, energy=args.energy,
+    settings = DCGSettings(net=args.net, config=config, alpha=alpha, energy=args.energy,
                            grid_size=args.grid_size, total_reward=args.total_reward,
                            strategies=tuple(args.strategies.split(",")), history=args.history,
                            max_steps=args.max_steps, reward_area=args.reward_area,
@@ -104,23 +114,41 @@ def Run(args) -> DCGRun:  # noqa: N802 - the name of train.dcp's
     return DCGRun(*settle(args))
 
 
+def ship_path(args) -> str:
+    """Where ``--ship`` writes (its PATH, or ``jaxdc/assets/dcg/NET.msgpack``)."""
+    return args.ship or os.path.join(pretrained.ASSETS, "dcg", f"{args.net}.msgpack")
+
+
 def main(argv=None) -> int:
+    """Train (and ship); the exit status (0, or :data:`~jaxdc.cli.train_common.EXIT_NAN` after a NaN loss).
+
+    Every flag, the run folder, its ``tb/`` and the ``--ship`` path are checked before any work; a bad value
+    or combination is a usage error (exit 2) naming the flag.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
-    enable_compilation_cache()
     try:
-        run = Run(args)
+        settings, control = settle(args)
+        check_outputs(control.out, control.tensorboard)
+        if args.ship is not None:
+            blob = ship_path(args)
+            check_output_path(blob if blob.endswith(".msgpack") else blob + ".msgpack", "--ship")
+        enable_compilation_cache()
+        run = DCGRun(settings, control)
         result = run.train()
-    except (ValueError, TypeError) as e:
+    except (ValueError, TypeError, MemoryError) as e:
         parser.error(str(e))
     if result["status"] == "nan":
         return EXIT_NAN
     for seed, r in result.get("per_seed", []):
         acc = r.get("eval_opponent_accuracy")
-        print(f"done: seed {seed}, {r['env_steps']} steps, eval reward {r['eval_reward']:.3f} "
-              f"(RPE {r['eval_rpe']:.3f}" + (f", opponent accuracy {acc:.3f})" if acc is not None else ")"))
+        print(f"done: seed {seed}, {r['env_steps']} steps, eval reward {fmt(r['eval_reward'])} "
+              f"(RPE {fmt(r['eval_rpe'])}" + (f", opponent accuracy {fmt(acc)})" if acc is not None else ")"))
     if args.ship is not None:
         argv_text = sys.argv[1:] if argv is None else list(argv)
-        path = run.ship(args.ship, "python -m train.dcg " + shlex.join(argv_text))
+        try:
+            path = run.ship(args.ship, "python -m train.dcg " + shlex.join(argv_text))
+        except ValueError as e:
+            parser.error(str(e))
         print(f"shipped: {path}")
     return 0

@@ -31,14 +31,16 @@ import os
 from jaxdc.agents.a2c import A2CConfig
 from jaxdc.agents.common import RunConfig
 from jaxdc.agents.nstep_q import EVAL_EPSILON, QConfig
-from jaxdc.cli.args import nonnegative_float, positive_float, positive_int
-from jaxdc.cli.train_common import (A2C_FLAGS, EXIT_NAN, a2c_settings, add_a2c_arguments, learner_options_set,
-                                    run_control, seed_tag)
+from jaxdc.cli.args import integer, positive_int, unit_interval
+from jaxdc.cli.train_common import (A2C_FLAGS, EXIT_NAN, a2c_settings, add_a2c_arguments, check_outputs, fmt,
+                                    learner_options_set, run_control, seed_tag, training_energy)
 from jaxdc.core import grid
 from jaxdc.io import enable_compilation_cache
 from jaxdc.training.dcp import NETS, DCPRun, DCPSettings
 
 #: The flags' settings n-step Q-learning shares with A2C: those of ``RunConfig`` (no loss weights or learner options).
+#: EQN's default environment steps between target-network copies (``QConfig.target_every``).
+TARGET_EVERY = QConfig.target_every
 Q_FIELDS = tuple(f for f in A2C_FLAGS if f in {field.name for field in dataclasses.fields(RunConfig)})
 
 
@@ -47,18 +49,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--net", choices=NETS, default="enn",
                    help="network to train (enn, linear, cnn: A2C; eqn: n-step Q-learning)")
     p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default="high", help="risk preset (Table 4.2)")
-    p.add_argument("--grid-size", type=positive_int("--grid-size"), default=8)
+    p.add_argument("--grid-size", type=integer("--grid-size", low=2), default=8, help="N (>= 2)")
     p.add_argument("--total-reward", type=positive_int("--total-reward"), default=30)
     p.add_argument("--min-total-reward", type=positive_int("--min-total-reward"), default=None,
                    help="beyond the thesis: each training episode drops a number of units drawn uniformly from "
                         "MIN..--total-reward (one network for Tables 4.3, 4.6 and 4.8; default: always --total-reward)")
-    p.add_argument("--energy", nargs=2, type=positive_float("--energy"), metavar=("INIT", "MAX"),
-                   default=(8.0, 16.0), help="initial and maximal energy (Tables 4.3-4.8: 8 16)")
+    p.add_argument("--energy", nargs=2, type=training_energy("--energy"), metavar=("INIT", "MAX"),
+                   default=(8.0, 16.0), help="initial and maximal energy, finite (Tables 4.3-4.8: 8 16)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=1000, help="episode step cap")
     add_a2c_arguments(p)  # --steps --seed(s) --envs --devices ... learner options ... --no-progress
-    p.add_argument("--target-every", type=positive_int("--target-every"), default=40_000,
-                   help="eqn: environment steps between target-network copies")
-    p.add_argument("--eval-epsilon", type=nonnegative_float("--eval-epsilon"), default=EVAL_EPSILON,
+    p.add_argument("--target-every", type=positive_int("--target-every"), default=None,
+                   help="eqn: environment steps between target-network copies (default 40000)")
+    p.add_argument("--eval-epsilon", type=unit_interval("--eval-epsilon"), default=None,
                    help="eqn: epsilon of the evaluation policy (section 4.5.5: 0.05)")
     p.add_argument("--out", default=None, help="run folder (default runs/dcp-NET-RISK-sSEED)")
     p.add_argument("--tensorboard", action="store_true",
@@ -76,14 +78,21 @@ def settle(args):
     if args.net == "eqn" and learner_options_set(args):
         raise ValueError(f"{', '.join(learner_options_set(args))}: learner options of A2C; "
                          "--net eqn trains with n-step Q-learning, which has none of them")
+    q_only = [f for f, v in (("--target-every", args.target_every), ("--eval-epsilon", args.eval_epsilon))
+              if v is not None]
+    if args.net != "eqn" and q_only:
+        raise ValueError(f"{', '.join(q_only)}: settings of n-step Q-learning, which applies to --net eqn only, "
+                         f"not {args.net!r}")
     if args.net == "eqn":
-        config = QConfig(**a2c_settings(args, Q_FIELDS), target_every=args.target_every)
+        config = QConfig(**a2c_settings(args, Q_FIELDS),
+                         target_every=TARGET_EVERY if args.target_every is None else args.target_every)
     else:
         config = A2CConfig(**a2c_settings(args))
     settings = DCPSettings(net=args.net, config=config, risk=args.risk, grid_size=args.grid_size,
                            total_reward=args.total_reward, min_total_reward=args.min_total_reward,
                            energy=tuple(args.energy), max_steps=args.max_steps, eval_episodes=args.eval_episodes,
-                           greedy_eval=args.greedy_eval, eval_epsilon=args.eval_epsilon)
+                           greedy_eval=args.greedy_eval,
+                           eval_epsilon=EVAL_EPSILON if args.eval_epsilon is None else args.eval_epsilon)
     out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{seed_tag(args)}")
     return settings, run_control(args, out)
 
@@ -94,16 +103,23 @@ def Run(args) -> DCPRun:  # noqa: N802 - the name docs/learning.md uses
 
 
 def main(argv=None) -> int:
+    """Train; the exit status (0, or :data:`~jaxdc.cli.train_common.EXIT_NAN` after a NaN loss).
+
+    Every flag, the run folder and its ``tb/`` are checked before any work; a bad value or combination is a
+    usage error (exit 2) naming the flag.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
-    enable_compilation_cache()
     try:
-        result = Run(args).train()
-    except ValueError as e:
+        settings, control = settle(args)
+        check_outputs(control.out, control.tensorboard)
+        enable_compilation_cache()
+        result = DCPRun(settings, control).train()
+    except (ValueError, TypeError, MemoryError) as e:
         parser.error(str(e))
     if result["status"] == "nan":
         return EXIT_NAN
     for seed, r in result.get("per_seed", []):
-        print(f"done: seed {seed}, {r['env_steps']} steps, eval reward {r['eval_reward']:.3f} "
-              f"(energy {r['eval_energy']:.2f}, RPE {r['eval_rpe']:.3f})")
+        print(f"done: seed {seed}, {r['env_steps']} steps, eval reward {fmt(r['eval_reward'])} "
+              f"(energy {fmt(r['eval_energy'], '.2f')}, RPE {fmt(r['eval_rpe'])})")
     return 0

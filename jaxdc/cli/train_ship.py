@@ -28,7 +28,8 @@ import os
 import sys
 import time
 
-from jaxdc.cli.args import positive_int
+from jaxdc.cli.args import positive_int, seed
+from jaxdc.io import check_output_folder
 from jaxdc.pretrained import ASSETS
 from jaxdc.training.ship import DCG_STRONG, EVERY, SHIPPED, export, train_all, train_command
 
@@ -39,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"names to regenerate (default: {', '.join(SHIPPED)})")
     p.add_argument("--steps", type=positive_int("--steps"), default=1_000_000,
                    help="environment steps per run (thesis: 1M; enn_single_item and enn_long have their own)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed("--seed"), default=0)
     p.add_argument("--runs", default=os.path.join("runs", "ship"), help="folder of the run folders")
     p.add_argument("--out", default=os.path.join(ASSETS, "dcp"), help="where the parameter files go")
     p.add_argument("--jobs", type=positive_int("--jobs"), default=2, help="trainings at a time")
@@ -48,12 +49,20 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    """Train and export; the exit status. The output folders are checked before any work; Ctrl-C stops the
+    child trainings (none is left running) and exits 130 through :func:`jaxdc.cli.runner.run`."""
     p = build_parser()
     args = p.parse_args(argv)
     names = args.only or list(SHIPPED)
     if args.export_only and any(n in DCG_STRONG for n in names):
         p.error(f"--export-only: {', '.join(n for n in names if n in DCG_STRONG)} are written by train.dcg --ship; "
                 "train them (a finished run folder is resumed)")
+    try:
+        check_output_folder(args.out, "--out")
+        if not args.export_only:
+            check_output_folder(args.runs, "--runs")
+    except ValueError as e:
+        p.error(str(e))
     commands = {n: train_command(n, args.steps, args.seed, args.runs) for n in names}
     t0 = time.perf_counter()
     if not args.export_only:

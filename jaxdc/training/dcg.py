@@ -27,7 +27,8 @@ from jaxdc.dcg.env import DCG
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.nets import DCG_NETS, make_dcg_net
-from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, spread
+from jaxdc.training.loop import (RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits,
+                                 spread)
 from jaxdc.training.metadata import FORMAT
 
 NETS = tuple(DCG_NETS)
@@ -128,6 +129,7 @@ class DCGRun(TrainingRun):
         self.env, self.env_params = make_env(s)  # validates grid, strategies, energy
         if s.config.aux_lr is not None and s.net != "omn_conn":
             raise ValueError(f"--omn-lr sets OMN's learning rate and applies to --net omn_conn only, not {s.net!r}")
+        check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
         aux = s.has_aux
         trainer, mesh = spread(a2c.make_train(s.config, self.env, self.env_params, self.net,
                                               aux_target=(lambda info: info["opponent_action"]) if aux else None),
@@ -143,6 +145,7 @@ class DCGRun(TrainingRun):
         self._evaluate = jax.jit(jax.vmap(evaluate) if control.multi else evaluate)
         super().__init__(control, RunSpec(s.config, trainer, mesh, run_metadata(s, self.env, control.seeds),
                                           self.evaluate, LOSS_METRICS, CSV_FIELDS))
+        check_evaluation_fits(self, self._evaluate)
 
     def evaluate(self, params, key) -> list[dict]:
         """Evaluation columns of each seed."""

@@ -23,7 +23,8 @@ from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import navigators
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
-from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, spread
+from jaxdc.training.loop import (RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits,
+                                 spread)
 from jaxdc.training.metadata import FORMAT
 
 #: Networks: the actor-critics train with A2C, EQN with n-step Q-learning.
@@ -89,6 +90,7 @@ class DCPRun(TrainingRun):
         self.env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward,
                                min_total_reward=s.min_total_reward)
         self.env_params = self.env.make_params(s.risk, tuple(s.energy), s.max_steps)
+        check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
         table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
         self.heuristics = navigators.batched_heuristics(self.env_params, table)
         trainer, mesh = spread(algo.make_train(s.config, self.env, self.env_params, self.net, self.heuristics),
@@ -101,6 +103,7 @@ class DCPRun(TrainingRun):
         self._episodes = jax.jit(jax.vmap(episodes) if control.multi else episodes)
         super().__init__(control, RunSpec(s.config, trainer, mesh, run_metadata(s, control.seeds), self.evaluate,
                                           LOSS_METRICS, CSV_FIELDS))
+        check_evaluation_fits(self, self._episodes)
 
     def policy(self, params):
         """The evaluation policy: sampled from pi (argmax if ``greedy_eval``); EQN: epsilon-greedy."""

@@ -30,6 +30,7 @@ import numpy as np
 from jaxdc import checkpoint
 from jaxdc.agents import parallel
 from jaxdc.agents.common import RunConfig, Trainer, lr_schedule
+from jaxdc.core import memory
 from jaxdc.io import atomic_write_json
 from jaxdc.training import metadata as metadata_format
 from jaxdc.training.metrics import read_rows, tensorboard_writer, write_rows
@@ -113,6 +114,27 @@ def spread(trainer: Trainer, control: RunControl, num_envs: int):
                          "change --envs or pass --devices")
     mesh = parallel.data_mesh(devices)
     return parallel.parallelize(trainer, mesh, len(control.seeds) if control.multi else None), mesh
+
+
+#: A rollout's observations are held as transitions, then as the network's input and its gradient: about this
+#: many copies of ``seeds * num_envs * t_max`` observations are alive at once during an update.
+BATCH_COPIES = 4
+
+
+def check_batch_fits(config: RunConfig, env, env_params, seeds: int = 1) -> None:
+    """``MemoryError`` before any compilation if a rollout batch (``seeds * num_envs * t_max`` observations,
+    :data:`BATCH_COPIES` copies) cannot fit in the device's memory; the message says what to lower."""
+    obs = jax.eval_shape(env.reset_env, jax.random.PRNGKey(0), env_params)[0]
+    needed = BATCH_COPIES * seeds * config.num_envs * (config.t_max + 1) * memory.tree_bytes(obs)
+    memory.check_fits(needed, f"a rollout batch of {seeds} x {config.num_envs} environments x {config.t_max} "
+                              "steps", "--envs or --t-max (or the number of --seeds)")
+
+
+def check_evaluation_fits(run, evaluate) -> None:
+    """Trace (without running) ``evaluate(params, key)`` of ``run``, so that the memory check of its episodes
+    (:func:`jaxdc.core.rollout.run_episodes`) refuses a too large ``--eval-episodes`` before training starts."""
+    params = jax.eval_shape(run.trainer.init, run.init_key()).params
+    jax.eval_shape(evaluate, params, run.eval_key(0))
 
 
 def check_writable(folder: str) -> None:
@@ -233,6 +255,10 @@ class TrainingRun:
                    unit_scale=True, disable=not c.progress, dynamic_ncols=True)
         last = {"status": "done", "updates": update}
         self.final_state = state
+        if c.resume and update >= cfg.num_updates:
+            print(f"--resume: the run in {self.out} is already finished ({update * cfg.batch_size} environment "
+                  f"steps, {update} updates; its last checkpoint is in {self.ckpt_dir}); nothing to train",
+                  file=sys.stderr)
         while update < cfg.num_updates:
             n = min(every - update % every, cfg.num_updates - update)
             t0 = time.perf_counter()
@@ -241,8 +267,11 @@ class TrainingRun:
             wall = time.perf_counter() - t0
             if not np.all(np.isfinite(metrics["loss"])):
                 bar.close()
+                saved = checkpoint.latest_step(self.ckpt_dir)
+                where = (f"The last good checkpoint (update {saved}) is in {self.ckpt_dir}" if saved is not None
+                         else "No checkpoint was written yet (the first comes after the first evaluation)")
                 print(f"error: the loss became NaN/inf between updates {update} and {update + n}; stopping. "
-                      f"The last good checkpoint is in {self.ckpt_dir}", file=sys.stderr)
+                      f"{where}", file=sys.stderr)
                 return {"status": "nan", "updates": update}
             update += n
             evals = spec.evaluate(state.params, self.eval_key(update))
@@ -260,9 +289,11 @@ class TrainingRun:
                         if k not in ("env_steps", "updates") and isinstance(v, (int, float)):
                             writers[i].add_scalar(k, v, row["env_steps"])
                     writers[i].flush()
-            checkpoint.save(self.ckpt_dir, update, state, self.metadata, keep=c.keep)
+            # metrics first: a run stopped between the two resumes from the previous checkpoint and drops the
+            # rows past it, so the CSV and the checkpoints always agree
             for (csv_path, _), seed_rows in zip(paths, rows):
                 write_rows(csv_path, seed_rows, spec.csv_fields)
+            checkpoint.save(self.ckpt_dir, update, state, self.metadata, keep=c.keep)
             last = dict(rows[0][-1], per_seed=[(seed, r[-1]) for seed, r in zip(self.seeds, rows)])
             bar.set_postfix({spec.postfix_key: " ".join(f"{r[-1][spec.postfix_key]:.3f}" for r in rows)})
             self.final_state = state

@@ -80,6 +80,8 @@ DCG_STRONG["omn_conn_strong_areas"] = (
     "5.11 (beyond the thesis: one network for reward-area sizes 1-4)",
     ["--net", "omn_conn", "--steps", "5000000", *DCG_STRONG_RECIPE, "--reward-area", "4", "--min-reward-area", "1"])
 ALL = {**SHIPPED, **BEYOND}
+#: Seconds between checks of the running trainings.
+POLL_S = 5
 EVERY = {**ALL, **DCG_STRONG}
 
 
@@ -126,27 +128,56 @@ def export(name: str, run: str, command: list[str], out: str) -> str:
     return pretrained.save(os.path.join(out, name), learned.params, metadata)
 
 
+#: Seconds a child training gets to exit after ``terminate()`` before it is killed.
+STOP_TIMEOUT = 20
+
+
+def stop_children(procs) -> None:
+    """Terminate the child trainings still running, wait for them, kill those that do not exit in time."""
+    for proc in procs:
+        if proc.poll() is None:
+            proc.terminate()
+    deadline = time.monotonic() + STOP_TIMEOUT
+    for proc in procs:
+        try:
+            proc.wait(timeout=max(0.1, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
 def train_all(names, commands: dict, runs: str, jobs: int) -> list[str]:
     """Run the training ``commands`` of ``names`` (``jobs`` at a time, each resumed if its run folder has
-    checkpoints, logs in ``runs/<name>.log``); the names whose training failed."""
+    checkpoints, logs in ``runs/<name>.log``); the names whose training failed.
+
+    An interruption (Ctrl-C, SIGTERM) stops the running children (terminate, then kill after
+    :data:`STOP_TIMEOUT` s) before it propagates: no training is left running, and each child's checkpoints
+    are those of an interrupted run, resumed by the next call.
+    """
     t0 = time.perf_counter()
     pending, running, failed = list(names), {}, []
     os.makedirs(runs, exist_ok=True)
-    while pending or running:
-        while pending and len(running) < jobs:
-            n = pending.pop(0)
-            cmd = [sys.executable] + commands[n][1:]
-            if os.path.isdir(os.path.join(runs, n, "checkpoints")):
-                cmd.append("--resume")
-            log = open(os.path.join(runs, f"{n}.log"), "w")
-            print(f"training {n}: {' '.join(commands[n])}", file=sys.stderr)
-            running[n] = (subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT), log)
-        time.sleep(5)
-        for n, (proc, log) in list(running.items()):
-            if proc.poll() is not None:
-                log.close()
-                del running[n]
-                print(f"  {n}: exit {proc.returncode} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
-                if proc.returncode != 0:
-                    failed.append(n)
+    try:
+        while pending or running:
+            while pending and len(running) < jobs:
+                n = pending.pop(0)
+                cmd = [sys.executable] + commands[n][1:]
+                if os.path.isdir(os.path.join(runs, n, "checkpoints")):
+                    cmd.append("--resume")
+                log = open(os.path.join(runs, f"{n}.log"), "w")
+                print(f"training {n}: {' '.join(commands[n])}", file=sys.stderr)
+                running[n] = (subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT), log)
+            time.sleep(POLL_S)
+            for n, (proc, log) in list(running.items()):
+                if proc.poll() is not None:
+                    log.close()
+                    del running[n]
+                    print(f"  {n}: exit {proc.returncode} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
+                    if proc.returncode != 0:
+                        failed.append(n)
+    except BaseException:
+        stop_children([proc for proc, _ in running.values()])
+        for _, log in running.values():
+            log.close()
+        raise
     return failed

@@ -1,0 +1,394 @@
+"""Hostile input for the training command lines (train.dcp, train.dcg, train.ship) and their library
+(configs, run loop, checkpoints, parameter files).
+
+Every bad value is refused before any work with exit status 2 and a message naming the flag (or the file and
+key), the value and the range, without a traceback; no NaN or Infinity reaches a file; Ctrl-C exits 130 with
+one line and leaves a consistent run folder (and no child training running).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxdc import checkpoint, pretrained
+from jaxdc.agents import a2c
+from jaxdc.agents.a2c import A2CConfig
+from jaxdc.agents.nstep_q import QConfig
+from jaxdc.cli import train_dcg, train_dcp, train_ship
+from jaxdc.nets import make_net
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# 8 updates of 4 envs x 8 steps on a 4x4 grid; one evaluation and checkpoint at the end.
+TINY = ["--net", "linear", "--grid-size", "4", "--total-reward", "6", "--energy", "4", "8", "--risk", "low",
+        "--steps", "256", "--envs", "4", "--t-max", "8", "--eval-every", "256", "--eval-episodes", "8",
+        "--no-progress"]
+DCG = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies", "restricted", "--steps", "256",
+       "--envs", "4", "--t-max", "8", "--eval-every", "256", "--eval-episodes", "8", "--no-progress"]
+
+
+def _refused(cli, argv, capsys, *needles):
+    """``cli.main(argv)`` is a usage error (exit 2) naming every needle, without a traceback or stdout."""
+    try:
+        rc = cli.main(argv)
+    except SystemExit as e:
+        rc = e.code
+    got = capsys.readouterr()
+    assert rc == 2, got
+    assert "Traceback" not in got.err
+    for n in needles:
+        assert n in got.err, (n, got.err)
+    assert got.out == ""
+    return got.err
+
+
+def _strict(path):
+    def refuse(c):
+        raise AssertionError(f"{path}: non-strict JSON constant {c}")
+    with open(path) as f:
+        return json.load(f, parse_constant=refuse)
+
+
+# ----------------------------------------------------------------------------- flags: train.dcp
+
+@pytest.mark.parametrize("extra, needles", [
+    (["--net", "eqn", "--eval-epsilon", "5"], ["--eval-epsilon", "[0, 1]", "5"]),
+    (["--entropy", "inf"], ["--entropy", "inf"]),
+    (["--lr", "nan"], ["--lr", "NaN"]),
+    (["--value-coef", "-1"], ["--value-coef", ">= 0"]),
+    (["--max-grad-norm", "inf"], ["--max-grad-norm", "inf"]),
+    (["--seed", "99999999999999999999"], ["--seed", "4294967295"]),
+    (["--seeds", "0,99999999999999999999"], ["--seeds", "4294967295"]),
+    (["--steps", "1000000000000"], ["--steps", "2147483647"]),
+    (["--max-steps", "3000000000"], ["--max-steps", "2147483647"]),
+    (["--energy", "inf", "inf"], ["--energy", "finite", "inf"]),
+    (["--energy", "1e40", "1e40"], ["--energy", "16777216"]),
+    (["--energy", "nan", "8"], ["--energy", "NaN"]),
+    (["--grid-size", "1"], ["--grid-size", ">= 2", "1"]),
+    (["--grid-size", "0"], ["--grid-size", ">= 2", "0"]),
+])
+def test_train_dcp_refuses_bad_flags(extra, needles, tmp_path, capsys):
+    out = tmp_path / "run"
+    _refused(train_dcp, TINY + ["--out", str(out)] + extra, capsys, *needles)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("cli, argv, needles", [
+    (train_dcp, TINY + ["--eval-epsilon", "0.1"], ["--eval-epsilon", "--net eqn only", "'linear'"]),
+    (train_dcp, TINY + ["--target-every", "64"], ["--target-every", "--net eqn only"]),
+    (train_dcg, DCG + ["--alpha", "0.01"], ["--alpha", "--net emnn only", "'vnn'"]),
+])
+def test_a_flag_that_does_not_apply_is_refused_not_ignored(cli, argv, needles, tmp_path, capsys):
+    out = tmp_path / "run"
+    _refused(cli, argv + ["--out", str(out)], capsys, *needles)
+    assert not out.exists()
+
+
+def test_train_dcp_refuses_a_batch_too_big_for_memory_before_compiling(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**20))
+    out = tmp_path / "run"
+    _refused(train_dcp, TINY + ["--out", str(out), "--envs", "4096", "--steps", "65536"], capsys,
+             "--envs", "--t-max", "MiB")
+    assert not (out / "config.json").exists()
+
+
+def test_train_dcp_refuses_evaluation_episodes_too_many_for_memory(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**24))
+    out = tmp_path / "run"
+    _refused(train_dcp, TINY + ["--out", str(out), "--eval-episodes", "100000000"], capsys,
+             "100000000 evaluation episodes", "lower the number of episodes")
+    assert not (out / "config.json").exists()
+
+
+def test_train_dcp_out_under_a_file_is_refused_before_work(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    _refused(train_dcp, TINY + ["--out", str(blocker / "run")], capsys, "--out", "is a file")
+    assert blocker.read_text() == "x"
+
+
+def test_train_dcp_tensorboard_folder_blocked_by_a_file(tmp_path, capsys):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "tb").write_text("x")
+    _refused(train_dcp, TINY + ["--out", str(out), "--tensorboard"], capsys, "--tensorboard", "tb")
+    assert sorted(os.listdir(out)) == ["tb"]
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write into a read-only folder")
+def test_train_dcp_read_only_out_is_refused(tmp_path, capsys):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    try:
+        _refused(train_dcp, TINY + ["--out", str(ro / "run")], capsys, "--out", "not writable")
+    finally:
+        ro.chmod(0o700)
+
+
+# ----------------------------------------------------------------------------- flags: train.dcg
+
+@pytest.mark.parametrize("extra, needles", [
+    (["--alpha", "inf"], ["--alpha", "inf"]),
+    (["--alpha", "nan"], ["--alpha", "NaN"]),
+    (["--omn-lr", "nan"], ["--omn-lr", "NaN"]),
+    (["--energy", "inf"], ["--energy", "finite"]),
+    (["--energy", "1e40"], ["--energy", "16777216"]),
+    (["--history", "0"], ["--history", ">= 1"]),
+    (["--history", "-3"], ["--history", ">= 1"]),
+    (["--grid-size", "0"], ["--grid-size", ">= 2"]),
+    (["--seed", "-1"], ["--seed", ">= 0"]),
+    (["--gamma", "inf"], ["--gamma", "inf"]),
+])
+def test_train_dcg_refuses_bad_flags(extra, needles, tmp_path, capsys):
+    out = tmp_path / "run"
+    _refused(train_dcg, DCG + ["--out", str(out)] + extra, capsys, *needles)
+    assert not out.exists()
+
+
+def test_train_dcg_ship_path_is_checked_before_training(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    out = tmp_path / "run"
+    _refused(train_dcg, DCG + ["--out", str(out), "--ship", str(blocker / "net.msgpack")], capsys,
+             "--ship", "is a file")
+    assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- flags: train.ship
+
+@pytest.mark.parametrize("extra, needles", [
+    (["--seed", "99999999999999999999"], ["--seed", "4294967295"]),
+    (["--jobs", "0"], ["--jobs", ">= 1"]),
+])
+def test_train_ship_refuses_bad_flags(extra, needles, capsys):
+    _refused(train_ship, ["--only", "enn"] + extra, capsys, *needles)
+
+
+def test_train_ship_output_folders_are_checked_first(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    _refused(train_ship, ["--only", "enn", "--runs", str(tmp_path / "runs"), "--out", str(blocker / "assets")],
+             capsys, "--out", "is a file")
+    assert not (tmp_path / "runs").exists()
+
+
+# ----------------------------------------------------------------------------- configs (API)
+
+@pytest.mark.parametrize("cls, kwargs, name", [
+    (A2CConfig, {"lr": float("inf")}, "lr"),
+    (A2CConfig, {"entropy_coef": float("nan")}, "entropy_coef"),
+    (A2CConfig, {"aux_lr": float("inf")}, "aux_lr"),
+    (A2CConfig, {"gamma": float("nan")}, "gamma"),
+    (A2CConfig, {"num_envs": 2**40}, "num_envs"),
+    (QConfig, {"eps_end": float("nan")}, "eps_end"),
+    (QConfig, {"target_every": 2**40}, "target_every"),
+])
+def test_configs_refuse_non_finite_and_huge_values(cls, kwargs, name):
+    with pytest.raises((ValueError, TypeError), match=name):
+        cls(**kwargs)
+
+
+# ----------------------------------------------------------------------------- parameter files (API)
+
+def _linear_params():
+    net = make_net("linear")
+    return net.init(jax.random.PRNGKey(0), jnp.zeros((1, 4, 4, 2)), jnp.zeros((1, 1, 9)))
+
+
+META = {"net": "linear", "problem": "dcp", "grid_size": 4}
+
+
+def test_a_parameter_file_holding_nan_is_refused_at_load(tmp_path):
+    path = pretrained.save(tmp_path / "lin", _linear_params(), META)
+    params, _ = pretrained.load(path)
+    bad = jax.tree_util.tree_map(np.array, params)  # writable copies
+    first = jax.tree_util.tree_flatten_with_path(bad)[0][0]
+    first[1][...] = np.nan
+    from flax import serialization
+    with open(path, "wb") as f:
+        f.write(serialization.msgpack_serialize(bad))
+    with pytest.raises(ValueError, match=r"lin\.msgpack.*parameter /params/.* holds NaN"):
+        pretrained.load(path)
+
+
+def test_save_refuses_nan_parameters_and_non_finite_metadata_leaving_no_file(tmp_path):
+    params = _linear_params()
+    nan = jax.tree_util.tree_map(lambda x: x * jnp.nan, params)
+    with pytest.raises(ValueError, match="holds NaN"):
+        pretrained.save(tmp_path / "a", nan, META)
+    with pytest.raises(ValueError, match="train_eval.reward"):
+        pretrained.save(tmp_path / "b", params, dict(META, train_eval={"reward": float("nan")}))
+    with pytest.raises(ValueError, match="not JSON-able"):
+        pretrained.save(tmp_path / "c", params, dict(META, bad=object()))
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("change, needles", [
+    ('"grid_size": NaN', ["lin.msgpack", "NaN"]),
+    ('"grid_size": true', ["lin.msgpack", "grid_size"]),
+    ('"grid_size": -4', ["lin.msgpack", "grid_size"]),
+    ('"energy": [8, "lots"]', ["lin.msgpack", "energy"]),
+])
+def test_a_bad_sidecar_value_names_the_file_and_the_key(tmp_path, change, needles):
+    path = pretrained.save(tmp_path / "lin", _linear_params(), META)
+    side = tmp_path / "lin.json"
+    side.write_text(side.read_text().replace('"grid_size": 4', change))
+    with pytest.raises(ValueError) as e:
+        pretrained.load(path)
+    for n in needles:
+        assert n in str(e.value), str(e.value)
+
+
+def test_a_shipped_name_resolves_from_any_working_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert pretrained.resolve("enn", "dcp") == os.path.join(pretrained.ASSETS, "dcp", "enn.msgpack")
+    assert pretrained.resolve("enn_ppo", "dcp").endswith(os.path.join("dcp", "enn_ppo.msgpack"))
+    assert pretrained.resolve("omn_conn_strong", "dcg").endswith(os.path.join("dcg", "omn_conn_strong.msgpack"))
+    from jaxdc.dcp import learned
+    assert learned.load("enn").net_name == "enn"
+    with pytest.raises(ValueError, match="shipped: .*enn_ppo"):
+        pretrained.resolve("no_such_net", "dcp")
+    (tmp_path / "enn.msgpack").write_bytes(b"")  # a local file of that name wins over the shipped one
+    assert pretrained.resolve("enn", "dcp") == "enn"
+
+
+# ----------------------------------------------------------------------------- runs: resume, NaN, corrupt
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    out = str(tmp_path_factory.mktemp("hostile") / "tiny")
+    assert train_dcp.main(TINY + ["--out", out]) == 0
+    return out
+
+
+def test_run_files_are_strict_json(finished):
+    meta = _strict(os.path.join(finished, "config.json"))
+    assert meta["energy"] == [4.0, 8.0]
+
+
+def test_resume_mismatch_names_the_differing_keys(finished, capsys):
+    err = _refused(train_dcp, TINY + ["--out", finished, "--resume", "--lr", "0.003"], capsys,
+                   "algorithm.lr: checkpoint has 0.0001, this run has 0.003")
+    assert "algorithm.gamma" not in err
+
+
+def test_resume_of_a_finished_run_says_so(finished, capsys):
+    assert train_dcp.main(TINY + ["--out", finished, "--resume"]) == 0
+    err = capsys.readouterr().err
+    assert "already finished" in err and os.path.join(finished, "checkpoints") in err
+
+
+@pytest.mark.filterwarnings("error::pytest.PytestUnraisableExceptionWarning")
+def test_a_corrupt_checkpoint_is_one_clear_error(finished, tmp_path, capsys):
+    out = str(tmp_path / "corrupt")
+    shutil.copytree(finished, out)
+    for root, _, files in os.walk(os.path.join(out, "checkpoints")):
+        if os.path.basename(root) == "d":
+            for name in files:
+                with open(os.path.join(root, name), "wb") as f:
+                    f.write(b"\x00garbage")
+    err = _refused(train_dcp, TINY + ["--out", out, "--resume"], capsys, "corrupt", "checkpoints")
+    assert "Event loop is closed" not in err and "tensorstore_spec" not in err
+
+
+def test_nan_stop_before_any_checkpoint_says_none_exists(tmp_path, monkeypatch, capsys):
+    loss = a2c.a2c_loss
+
+    def nan_loss(*args, **kwargs):
+        value, aux = loss(*args, **kwargs)
+        return value * jnp.nan, dict(aux, loss=value * jnp.nan)
+
+    monkeypatch.setattr(a2c, "a2c_loss", nan_loss)
+    out = tmp_path / "nan"
+    assert train_dcp.main(TINY + ["--out", str(out)]) == train_dcp.EXIT_NAN
+    err = capsys.readouterr().err
+    assert "No checkpoint was written yet" in err and "last good checkpoint" not in err
+    assert checkpoint.steps(out / "checkpoints") == [] and not (out / "metrics.csv").exists()
+    _strict(out / "config.json")
+
+
+# ----------------------------------------------------------------------------- Ctrl-C (subprocesses)
+
+def _env():
+    return dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+
+
+def _wait_for(predicate, timeout):
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        if predicate():
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def test_ctrl_c_in_train_dcp_exits_130_and_leaves_a_consistent_run(tmp_path):
+    out = tmp_path / "run"
+    argv = [a for a in TINY]
+    argv[argv.index("--steps") + 1] = "2000000"
+    argv[argv.index("--eval-every") + 1] = "64"
+    proc = subprocess.Popen([sys.executable, "-m", "train.dcp", *argv, "--out", str(out)], cwd=ROOT, env=_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert _wait_for(lambda: checkpoint.steps(out / "checkpoints"), 60), proc.stderr
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines() == ["python -m train.dcp: interrupted"], err
+    steps = checkpoint.steps(out / "checkpoints")
+    with open(out / "metrics.csv", newline="") as f:
+        updates = [int(r["updates"]) for r in csv.DictReader(f)]
+    assert steps and updates[: len(updates)] == sorted(updates) and steps[-1] <= updates[-1]
+    assert not [n for n in os.listdir(out) if n.startswith(".tmp-")]
+    _strict(out / "config.json")
+
+
+def test_ctrl_c_in_train_ship_stops_its_children(tmp_path):
+    runs = tmp_path / "runs"
+    proc = subprocess.Popen([sys.executable, "-m", "train.ship", "--only", "enn", "--steps", "100000000",
+                             "--runs", str(runs), "--out", str(tmp_path / "assets")], cwd=ROOT, env=_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert _wait_for(lambda: (runs / "enn.log").exists(), 30)
+    time.sleep(1.0)
+    children = _children(proc.pid)
+    assert children, "train.ship started no training"
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and err.strip().splitlines()[-1] == "python -m train.ship: interrupted", err
+    assert not [pid for pid in children if os.path.exists(f"/proc/{pid}") and not _zombie(pid)]
+    assert not (tmp_path / "assets").exists()
+
+
+def _children(pid: int) -> list[int]:
+    """The processes whose parent is ``pid`` (from /proc)."""
+    found = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as f:
+                    if int(f.read().split(")")[-1].split()[1]) == pid:
+                        found.append(int(entry))
+            except (OSError, ValueError, IndexError):
+                pass
+    return found
+
+
+def _zombie(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split(")")[-1].split()[0] == "Z"
+    except OSError:
+        return True
