@@ -28,3 +28,17 @@ def test_too_many_episodes_are_refused_before_the_rollout(monkeypatch):
 
 def test_tree_bytes():
     assert memory.tree_bytes({"a": jax.ShapeDtypeStruct((3, 4), "float32"), "b": jax.numpy.zeros(2, "int8")}) == 50
+
+
+def test_total_reward_and_stored_episodes_are_bounded(monkeypatch):
+    from jaxdc.core.trajectory import play_episode
+    from jaxdc.dcg.env import DCG
+
+    for make in (lambda: DCP(total_reward=2**24 + 1), lambda: DCG(total_reward=2_000_000_000)):
+        with pytest.raises(ValueError, match=r"total_reward must be in \[1, 16777216\]"):
+            make()
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**20))
+    env = DCP(grid_size=4, total_reward=3)
+    params = env.make_params(risk="low", energy=(4.0, 8.0), max_steps=10)
+    with pytest.raises(MemoryError, match="lower max_steps"):
+        play_episode(env, params, lambda k, o, s: 0, jax.random.PRNGKey(0), 100_000)

@@ -14,6 +14,8 @@ import jax.numpy as jnp
 
 #: The largest range ``uniform_index`` supports (the 32-bit product must not overflow).
 MAX_RANGE = 65535
+#: The most units one reset may drop: the item planes count them in float32, exact up to 2**24.
+MAX_TOTAL_REWARD = 2**24
 
 
 def uniform_index(key, shape, n):

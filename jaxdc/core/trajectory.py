@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdc.core import memory
 from jaxdc.core.validate import check_positive_int
 
 
@@ -28,6 +29,9 @@ def play_episode(env, params, policy: Callable, key, max_steps: int) -> list:
     terminated or truncated step, or after ``max_steps`` steps.
     """
     max_steps = check_positive_int("max_steps", max_steps)
+    _, state_shape = jax.eval_shape(env.reset_env, jax.random.PRNGKey(0), params)
+    memory.check_fits(max_steps * memory.tree_bytes(state_shape), f"an episode of up to {max_steps} stored states",
+                      "max_steps")
 
     @jax.jit
     def run(key):

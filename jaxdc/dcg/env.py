@@ -43,7 +43,7 @@ from flax import struct
 from jaxdc.core import grid
 from jaxdc.core.energy import ENERGY_METRICS, check_budget, energy_used, observed_energy, observed_energy_bound, step_energy
 from jaxdc.core.env import Environment
-from jaxdc.core.sampling import MAX_RANGE, drop_units, uniform_index
+from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, uniform_index
 from jaxdc.core.validate import INT32_MAX, check_int, is_int
 from jaxdc.dcg import opponents as opp_lib
 from jaxdc.dcg.opponents import CHASE_TIES, STANDARD_STRATEGIES, OpponentState
@@ -173,7 +173,7 @@ class DCG(Environment[EnvState, EnvParams]):
         self.min_reward_area = min_reward_area
         if total_reward is None:
             total_reward = 10 if reward_area is None else 1
-        self.total_reward = check_int("total_reward", total_reward, 1)
+        self.total_reward = check_int("total_reward", total_reward, 1, MAX_TOTAL_REWARD)
         self._strategies = opp_lib.get_strategies(strategies)
         self.strategies = tuple(s.name for s in self._strategies)
         self.history = check_int("history (k)", history, 1)

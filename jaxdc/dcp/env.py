@@ -32,7 +32,7 @@ from flax import struct
 from jaxdc.core import grid
 from jaxdc.core.energy import ENERGY_METRICS, check_budget, energy_used, observed_energy, observed_energy_bound, step_energy
 from jaxdc.core.env import Environment
-from jaxdc.core.sampling import MAX_RANGE, drop_units, running_count, uniform_index
+from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, running_count, uniform_index
 from jaxdc.core.validate import INT32_MAX, check_int, check_positive_int, is_int
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
@@ -114,7 +114,7 @@ class DCP(Environment[EnvState, EnvParams]):
         min_total_reward: int | None = None,
     ):
         self.grid_size = grid.check_grid_size(grid_size, max_cells=MAX_RANGE)  # the drop's uniform_index range
-        check_int("total_reward", total_reward, 1)
+        check_int("total_reward", total_reward, 1, MAX_TOTAL_REWARD)
         if min_total_reward is not None:
             if not is_int(min_total_reward):
                 raise TypeError(f"min_total_reward must be None or an int, got {min_total_reward!r}")
