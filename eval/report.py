@@ -1,20 +1,8 @@
 """``python -m eval.report``: see :mod:`jaxdc.cli.eval_report`."""
-import os
-import sys
-
-try:
-    from jaxdc.cli.eval_report import PROG, build_parser, main  # noqa: F401
-    from jaxdc.cli.runner import run
-except KeyboardInterrupt:  # Ctrl-C while the modules load: the same one line and status as later
-    if __name__ != "__main__":
-        raise
-    print("python -m eval.report: interrupted", file=sys.stderr)
-    sys.exit(130)
 
 if __name__ == "__main__":
-    status = run(main, PROG)
-    if status in (130, 143):  # interrupted: skip the interpreter's teardown, which may crash under a running XLA call
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(status)
-    sys.exit(status)
+    from jaxdc.cli.runner import entry
+
+    entry("jaxdc.cli.eval_report", "python -m eval.report")  # a Ctrl-C while the libraries load also exits 130
+else:
+    from jaxdc.cli.eval_report import PROG, build_parser, main  # noqa: F401

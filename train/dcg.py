@@ -1,8 +1,8 @@
 """``python -m train.dcg``: see :mod:`jaxdc.cli.train_dcg`."""
-import sys
-
-from jaxdc.cli.runner import run
-from jaxdc.cli.train_dcg import build_parser, main  # noqa: F401
 
 if __name__ == "__main__":
-    sys.exit(run(main, "python -m train.dcg"))
+    from jaxdc.cli.runner import entry
+
+    entry("jaxdc.cli.train_dcg", "python -m train.dcg")  # a Ctrl-C while the libraries load also exits 130
+else:
+    from jaxdc.cli.train_dcg import build_parser, main  # noqa: F401

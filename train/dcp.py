@@ -1,8 +1,8 @@
 """``python -m train.dcp``: see :mod:`jaxdc.cli.train_dcp`."""
-import sys
-
-from jaxdc.cli.runner import run
-from jaxdc.cli.train_dcp import Run, build_parser, main  # noqa: F401  (Run: docs/learning.md)
 
 if __name__ == "__main__":
-    sys.exit(run(main, "python -m train.dcp"))
+    from jaxdc.cli.runner import entry
+
+    entry("jaxdc.cli.train_dcp", "python -m train.dcp")  # a Ctrl-C while the libraries load also exits 130
+else:
+    from jaxdc.cli.train_dcp import Run, build_parser, main  # noqa: F401  (Run: docs/learning.md)

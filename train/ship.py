@@ -1,8 +1,8 @@
 """``python -m train.ship``: see :mod:`jaxdc.cli.train_ship`."""
-import sys
-
-from jaxdc.cli.runner import run
-from jaxdc.cli.train_ship import build_parser, main  # noqa: F401
 
 if __name__ == "__main__":
-    sys.exit(run(main, "python -m train.ship"))
+    from jaxdc.cli.runner import entry
+
+    entry("jaxdc.cli.train_ship", "python -m train.ship")  # a Ctrl-C while the libraries load also exits 130
+else:
+    from jaxdc.cli.train_ship import build_parser, main  # noqa: F401
