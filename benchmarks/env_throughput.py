@@ -57,6 +57,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchmarks import handbatched_dcp, numpy_dcp  # noqa: E402
+from benchmarks.publish import publish  # noqa: E402
 from jaxdc.core.env import step_batch  # noqa: E402
 from jaxdc.core.paths import safest_paths  # noqa: E402
 from jaxdc.dcp import navigators  # noqa: E402
@@ -64,7 +65,7 @@ from jaxdc.dcp.env import DCP  # noqa: E402
 from jaxdc.dcp.evaluate import evaluate_heuristic  # noqa: E402
 from jaxdc.cli.args import positive_int  # noqa: E402
 from jaxdc.cli.runner import run as run_cli  # noqa: E402
-from jaxdc.io import atomic_write_set, check_output_folder, json_text  # noqa: E402
+from jaxdc.io import check_output_folder, json_text  # noqa: E402
 
 DEFAULT_BATCH_SIZES = (1, 64, 1024, 4096, 16384)
 TABLE43_NAVIGATORS = ("safe_reward", "safe_recharge", "safe_both", "safe_neither")
@@ -380,13 +381,7 @@ def main(argv=None) -> dict:
     check_memory(args.batch_sizes)
     result = run(args)
     md = markdown(result)
-    atomic_write_set({args.out_dir / "env_throughput.json": json_text(result) + "\n",
-                      args.out_dir / "env_throughput.md": md + "\n"})
-    if args.json:
-        print(json_text(result, indent=None))
-        log(md)
-    else:
-        print(md)
+    publish(args.out_dir, "env_throughput", result, md, args.json)
     return result
 
 

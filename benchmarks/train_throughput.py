@@ -62,11 +62,12 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
 from benchmarks.env_throughput import make_env  # noqa: E402
+from benchmarks.publish import publish  # noqa: E402
 from jaxdc.agents import a2c  # noqa: E402
 from jaxdc.core.paths import safest_paths  # noqa: E402
 from jaxdc.dcp import navigators  # noqa: E402
 from jaxdc.cli.args import positive_float, positive_int  # noqa: E402
-from jaxdc.io import atomic_write_json, atomic_write_set, check_output_folder, json_text  # noqa: E402
+from jaxdc.io import atomic_write_json, check_output_folder, json_text  # noqa: E402
 from jaxdc.nets import make_net  # noqa: E402
 
 DEFAULT_ENVS = (16, 64, 256)
@@ -205,62 +206,12 @@ def sb3_body_class():
     return SB3ConvBody
 
 
-def sb3_jax_vec_env(num_envs: int, seed: int = 0):
-    """An SB3 ``VecEnv`` over :class:`jaxdc.wrappers.gymnasium.JaxVectorEnv`: all ``num_envs`` DCPs in
-    one jitted call per step (SB3 has no adapter for gymnasium's ``VectorEnv``). Same auto-reset
-    contract as SB3's own: the returned observation is the next episode's first, the finished one's
-    last is in ``info["terminal_observation"]``, truncation in ``info["TimeLimit.truncated"]``."""
-    import numpy as np
-    from stable_baselines3.common.vec_env import VecEnv, VecMonitor
-
-    from jaxdc.wrappers.gymnasium import make_dcp_vector
-
-    class SB3JaxVecEnv(VecEnv):
-        def __init__(self):
-            self.venv = make_dcp_vector(num_envs, **GYM_KWARGS)
-            self.render_mode = None
-            super().__init__(num_envs, self.venv.single_observation_space, self.venv.single_action_space)
-            self._seed = seed
-
-        def reset(self):
-            obs, _ = self.venv.reset(seed=self._seed)
-            self._seed = None
-            return obs.copy()  # writable, as torch wants
-
-        def step_async(self, actions):
-            self._actions = np.asarray(actions, dtype=np.int64).reshape(self.num_envs)
-
-        def step_wait(self):
-            obs, reward, term, trunc, info = self.venv.step(self._actions)
-            done = term | trunc
-            infos = [{"TimeLimit.truncated": bool(trunc[i] and not term[i])} for i in range(self.num_envs)]
-            for i in np.flatnonzero(done):
-                infos[i]["terminal_observation"] = info["final_obs"][i]
-            return obs.copy(), reward.astype(np.float32), done, infos
-
-        def close(self):
-            self.venv.close()
-
-        def get_attr(self, attr_name, indices=None):
-            return [getattr(self, attr_name)] * len(self._get_indices(indices))
-
-        def set_attr(self, attr_name, value, indices=None):
-            setattr(self, attr_name, value)
-
-        def env_method(self, method_name, *args, indices=None, **kwargs):
-            raise NotImplementedError(method_name)
-
-        def env_is_wrapped(self, wrapper_class, indices=None):
-            return [False] * len(self._get_indices(indices))
-
-    return VecMonitor(SB3JaxVecEnv())
-
-
 def make_sb3_a2c(num_envs: int, vec_env: str = "dummy", seed: int = 0):
     """SB3 A2C on the DCP sized and tuned like jaxdc's (see the module docs).
 
     ``vec_env``: ``"dummy"``, ``make_vec_env("jaxdc/DCP-v0")`` (one jitted env call per env
-    and step, what a user gets), or ``"jaxvec"``, :func:`sb3_jax_vec_env` (one call per step).
+    and step, what a user gets), or ``"jaxvec"``, :class:`jaxdc.wrappers.sb3.JaxdcVecEnv` (one jitted call for
+    all envs per step).
     """
     import torch
     from stable_baselines3 import A2C
@@ -269,7 +220,9 @@ def make_sb3_a2c(num_envs: int, vec_env: str = "dummy", seed: int = 0):
     import jaxdc  # noqa: F401  (registers the id)
 
     if vec_env == "jaxvec":
-        venv = sb3_jax_vec_env(num_envs, seed)
+        from jaxdc.wrappers.sb3 import make_sb3_vec_env
+
+        venv = make_sb3_vec_env("DCP-v0", num_envs, seed, **GYM_KWARGS)
     else:  # render_mode=None: make_vec_env asks for "rgb_array" unless told otherwise
         venv = make_vec_env("jaxdc/DCP-v0", n_envs=num_envs, seed=seed,
                             env_kwargs={**GYM_KWARGS, "render_mode": None})
@@ -371,15 +324,10 @@ def run(args) -> dict:
         _save_partial(args.out_dir, rows)
     dcg = None
     if args.dcg:
-        try:
-            from jaxdc.nets import DCG_NETS
-        except ImportError:
-            DCG_NETS = {}
-        if "omn_conn" in DCG_NETS:
-            dcg = bench_jax("omn_conn", 16, "loop", args.chunk_steps, repeats, game="dcg")
-            dcg["est_1M_s"] = 1e6 / dcg["steps_per_s"] + dcg["compile_s"]
-            log(f"{dcg['impl']:>14} loop envs=16   {dcg['steps_per_s']:>10,.0f} steps/s")
-            rows.append(dcg)
+        dcg = bench_jax("omn_conn", 16, "loop", args.chunk_steps, repeats, game="dcg")
+        dcg["est_1M_s"] = 1e6 / dcg["steps_per_s"] + dcg["compile_s"]
+        log(f"{dcg['impl']:>14} loop envs=16   {dcg['steps_per_s']:>10,.0f} steps/s")
+        rows.append(dcg)
     flops = flops_per_sample()
     gflops = measured_gflops()
     for r in rows:
@@ -571,14 +519,8 @@ def main(argv=None) -> dict:
     result = run(args)
     result["command"] = cmd.strip()
     md = f"`{result['command']}`\n\n" + markdown(result)
-    atomic_write_set({args.out_dir / "train_throughput.json": json_text(result) + "\n",
-                      args.out_dir / "train_throughput.md": md + "\n"})
+    publish(args.out_dir, "train_throughput", result, md, args.json)
     (args.out_dir / "train_throughput.partial.json").unlink(missing_ok=True)
-    if args.json:
-        print(json_text(result, indent=None))
-        log(md)
-    else:
-        print(md)
     return result
 
 
