@@ -121,3 +121,17 @@ def make_game(env, pos, opp, strategy, items=None, energy=15.0, home=None, targe
 @pytest.fixture
 def state_builder():
     return make_state
+
+
+@pytest.fixture
+def read_only_folder(tmp_path, monkeypatch):
+    """An empty folder no one may write into (mode 0o500). Root writes anywhere, so under root
+    ``os.access`` is also made to answer "not writable" for it, which is what jaxdc's checks ask."""
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    if hasattr(os, "geteuid") and os.geteuid() == 0:
+        real = os.access
+        monkeypatch.setattr(os, "access", lambda p, m, **kw: False if os.fspath(p) == str(ro) else real(p, m, **kw))
+    yield ro
+    ro.chmod(0o700)

@@ -178,3 +178,15 @@ def brute_force(D, beta, psi):
             for p in partitions(list(sub)):
                 best = max(best, sum(best_tour[tuple(sorted(b))] for b in p))
     return best
+
+
+def graph_batch(seeds, n=7, rewards="1-9", size=40, psi=0.99):
+    """``(D, beta, psi)`` arrays of generated graphs (one per seed, robot value 0) for the array programs."""
+    import jax.numpy as jnp
+
+    from jaxdc.drp import world
+
+    gs = [world.generate(s, n=n, size=size, rewards=rewards) for s in seeds]
+    D = jnp.stack([world.distances(g.base, g.nodes) for g in gs])
+    beta = jnp.stack([world.node_values(g.rewards, 0.0) for g in gs])
+    return D, beta, jnp.full((len(gs),), psi, jnp.float32)

@@ -4,6 +4,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from drp_reference import graph_batch
 from jaxdc.drp import world
 from jaxdc.drp.batching import bucket, bucketed, width
 from jaxdc.drp.evaluate import ClusterEvaluation, evaluate, evaluate_clusters
@@ -13,10 +14,7 @@ ALPHAS = [0.0, 10.0, 25.0, 40.0]
 
 
 def batch(seeds, rewards="1-9"):
-    gs = [world.generate(s, n=N, size=40, rewards=rewards) for s in seeds]
-    D = jnp.stack([world.distances(g.base, g.nodes) for g in gs])
-    beta = jnp.stack([world.node_values(g.rewards, 0.0) for g in gs])
-    return D, beta, jnp.full((len(gs),), 0.99, jnp.float32)
+    return graph_batch(seeds, N, rewards)
 
 
 def test_cluster_rewards_do_not_depend_on_the_batch():

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import drp_reference as ref
+from drp_reference import graph_batch
 from jaxdc.drp import world
 from jaxdc.drp.evaluate import combine, evaluate_clusters, evaluate_parts
 from jaxdc.drp.nc_clustering import nc
@@ -15,10 +16,7 @@ ALPHAS = [0.0, 10.0, 25.0, 40.0]
 
 
 def batch(seeds, rewards="1-9"):
-    gs = [world.generate(s, n=N, size=40, rewards=rewards) for s in seeds]
-    D = jnp.stack([world.distances(g.base, g.nodes) for g in gs])
-    beta = jnp.stack([world.node_values(g.rewards, 0.0) for g in gs])
-    return D, beta, jnp.full((len(gs),), 0.99, jnp.float32)
+    return graph_batch(seeds, N, rewards)
 
 
 @pytest.mark.parametrize("builder", ["ng", "tl", "gi"])

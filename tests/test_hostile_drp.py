@@ -15,6 +15,7 @@ import time
 import numpy as np
 import pytest
 
+from cli_checks import refused
 from jaxdc.cli import eval_drp as cli
 from jaxdc.core.validate import SEED_MAX
 from jaxdc.drp import world
@@ -31,19 +32,8 @@ def _strict(text):
 
 
 def _refused(argv, capsys, *needles, code=2):
-    """``main(argv)`` exits ``code`` (SystemExit from argparse or a returned status) with one error naming all
-    ``needles``; no traceback."""
-    try:
-        rc = cli.main(argv)
-    except SystemExit as e:
-        rc = e.code
-    err = capsys.readouterr()
-    assert rc == code, err
-    assert "Traceback" not in err.err
-    for n in needles:
-        assert n in err.err, (n, err.err)
-    assert err.out == ""
-    return err.err
+    """``python -m eval.drp argv`` is refused naming every needle (:func:`cli_checks.refused`)."""
+    return refused(cli.main, argv, capsys, *needles, code=code)
 
 
 def _graph_file(tmp_path, **changes):
@@ -95,14 +85,10 @@ def test_figure_out_under_a_file_is_refused_before_work(tmp_path, capsys, monkey
     assert os.listdir(tmp_path) == ["file"]
 
 
-def test_figure_out_in_a_read_only_folder_is_refused_before_work(tmp_path, capsys, monkeypatch):
+def test_figure_out_in_a_read_only_folder_is_refused_before_work(read_only_folder, capsys, monkeypatch):
     monkeypatch.setattr(cli, "_compute_experiment", lambda s: pytest.fail("work started"))
-    ro = tmp_path / "ro"
-    ro.mkdir()
-    real = os.access
-    monkeypatch.setattr(os, "access", lambda p, m, **k: False if os.fspath(p) == str(ro) else real(p, m, **k))
-    _refused(["--out", str(ro / "o"), "figure", "3.1", "--quick"], capsys, "--out", "not writable")
-    assert os.listdir(ro) == []
+    _refused(["--out", str(read_only_folder / "o"), "figure", "3.1", "--quick"], capsys, "--out", "not writable")
+    assert os.listdir(read_only_folder) == []
 
 
 # ----------------------------------------------------------------------------- figure outputs

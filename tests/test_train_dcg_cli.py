@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import csv
 import os
-import shutil
 
 import jax
 import numpy as np
 import pytest
 
+from cli_checks import refused, resumes_exactly, tiny_run
 from jaxdc import checkpoint, pretrained
 from jaxdc.core.rollout import run_episodes
 from jaxdc.nets import make_dcg_net
@@ -23,18 +23,12 @@ TINY = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies
 
 
 def _fails(capsys, argv, match):
-    with pytest.raises(SystemExit) as e:
-        cli.main(argv)
-    assert e.value.code == 2
-    err = capsys.readouterr().err
-    assert match in err, err
+    refused(cli.main, argv, capsys, match)
 
 
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory):
-    out = str(tmp_path_factory.mktemp("runs") / "tiny")
-    assert cli.main(TINY + ["--out", out]) == 0
-    return out
+    return tiny_run(cli.main, TINY, tmp_path_factory)
 
 
 @pytest.fixture(scope="module")
@@ -70,14 +64,7 @@ def test_tiny_run_beats_the_uniform_policy(finished_run):
 
 
 def test_resume_ends_with_the_same_parameters(finished_run, tmp_path):
-    out = str(tmp_path / "killed")
-    shutil.copytree(finished_run, out)
-    shutil.rmtree(os.path.join(out, "checkpoints", "150"))  # as if killed after the first checkpoint
-    assert cli.main(TINY + ["--out", out, "--resume"]) == 0
-    a, b = _restore(finished_run), _restore(out)
-    assert int(a.update) == int(b.update) == 150
-    for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
-        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    out = resumes_exactly(cli.main, TINY, finished_run, tmp_path, 150, _restore)
     assert [r["eval_reward"] for r in _rows(out)] == [r["eval_reward"] for r in _rows(finished_run)]
 
 

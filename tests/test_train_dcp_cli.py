@@ -11,6 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from cli_checks import refused, resumes_exactly, tiny_run
 from jaxdc import checkpoint
 from jaxdc.agents import a2c
 from jaxdc.cli import train_common as common
@@ -23,18 +24,12 @@ TINY = ["--net", "linear", "--grid-size", "4", "--total-reward", "6", "--energy"
 
 
 def _fails(capsys, argv, match):
-    with pytest.raises(SystemExit) as e:
-        cli.main(argv)
-    assert e.value.code == 2
-    err = capsys.readouterr().err
-    assert match in err, err
+    refused(cli.main, argv, capsys, match)
 
 
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory):
-    out = str(tmp_path_factory.mktemp("runs") / "tiny")
-    assert cli.main(TINY + ["--out", out]) == 0
-    return out
+    return tiny_run(cli.main, TINY, tmp_path_factory)
 
 
 def _restore(out, net="linear"):
@@ -54,14 +49,7 @@ def test_run_writes_config_metrics_and_checkpoints(finished_run):
 
 
 def test_resume_ends_with_the_same_parameters(finished_run, tmp_path):
-    out = str(tmp_path / "killed")
-    shutil.copytree(finished_run, out)
-    shutil.rmtree(os.path.join(out, "checkpoints", "128"))  # as if killed after the first checkpoint
-    assert cli.main(TINY + ["--out", out, "--resume"]) == 0
-    a, b = _restore(finished_run), _restore(out)
-    assert int(a.update) == int(b.update) == 128
-    for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
-        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    out = resumes_exactly(cli.main, TINY, finished_run, tmp_path, 128, _restore)
     with open(os.path.join(out, "metrics.csv")) as f:
         assert [int(r["updates"]) for r in csv.DictReader(f)] == [64, 128]
 

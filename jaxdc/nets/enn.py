@@ -44,14 +44,18 @@ class EnsembleHead(nn.Module):
         return w, b
 
 
-class ENN(nn.Module):
-    """``(obs [B, N, N, 2], heuristics [B, n, A]) -> (logits [B, A], value [B])`` (Fig. 4.3)."""
+class HeuristicNet(nn.Module):
+    """The fields and the network contract of the networks that weigh the heuristic vectors (ENN, EQN)."""
 
     num_heuristics: int = 10
     num_actions: int = 9
     uses_heuristics = True
     has_aux = False
     aux_params = ()
+
+
+class ENN(HeuristicNet):
+    """``(obs [B, N, N, 2], heuristics [B, n, A]) -> (logits [B, A], value [B])`` (Fig. 4.3)."""
 
     def setup(self):
         self.body = ConvBody()

@@ -15,17 +15,11 @@ from __future__ import annotations
 import flax.linen as nn
 
 from jaxdc.nets.body import ConvBody
-from jaxdc.nets.enn import EnsembleHead, ensemble
+from jaxdc.nets.enn import EnsembleHead, HeuristicNet, ensemble
 
 
-class EQN(nn.Module):
+class EQN(HeuristicNet):
     """``(obs [B, N, N, 2], heuristics [B, n, A]) -> q [B, A]`` (Fig. 4.4)."""
-
-    num_heuristics: int = 10
-    num_actions: int = 9
-    uses_heuristics = True
-    has_aux = False
-    aux_params = ()
 
     @nn.compact
     def __call__(self, obs, heuristics):
