@@ -6,4 +6,3 @@ if __name__ == "__main__":
     entry("jaxdc.cli.eval_dcp", "python -m eval.dcp")  # a Ctrl-C while the libraries load also exits 130
 else:
     from jaxdc.cli.eval_dcp import PROG, build_parser, main  # noqa: F401
-    from jaxdc.dcp.tables import incr_rows  # noqa: F401  (tests/test_learned_policies.py)

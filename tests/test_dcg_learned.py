@@ -12,7 +12,7 @@ import pytest
 from jaxdc import pretrained
 from jaxdc.dcg.evaluate import evaluate_network, summarize
 from jaxdc.dcg.learned import shipped, shipped_names
-from train import dcg as train_dcg
+from jaxdc.cli import train_dcg
 
 #: The recipe of docs/dcg.md: the PPO-style options at lr 1e-3, 3M steps (``NET_strong``) or 1M (``NET_strong_1m``).
 RECIPE = {"num_envs": 32, "t_max": 32, "lr": 1e-3, "clip_eps": 0.2, "epochs": 4,

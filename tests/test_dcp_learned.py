@@ -14,7 +14,8 @@ import jax
 import numpy as np
 import pytest
 
-from eval import dcp as cli
+from jaxdc.cli import eval_dcp as cli
+from jaxdc.dcp.tables import incr_rows
 from jaxdc import pretrained
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import learned as learned_lib
@@ -53,7 +54,7 @@ def test_incr_percent_hand_example():
     ours = {n: {c: {"mean": v} for c, v in zip(("reward", "energy", "rpe"), (2.0, 4.0, 0.5))}
             for n in spec.heuristic_rows}
     ours["eqn"] = {"reward": {"mean": 3.0}, "energy": {"mean": 2.0}, "rpe": {"mean": 1.0}}
-    incr = cli.incr_rows(spec, ours, "eqn")
+    incr = incr_rows(spec, ours, "eqn")
     assert set(incr) == set(spec.heuristic_rows)
     assert incr["safe_reward"]["reward"][1] == pytest.approx(50.0)
     assert incr["safe_reward"]["energy"][1] == pytest.approx(-50.0)

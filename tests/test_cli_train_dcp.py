@@ -113,7 +113,7 @@ def test_bad_folders_and_checkpoints(finished_run, tmp_path, capsys):
 
 
 def test_eqn_is_wired_to_nstep_q(tmp_path):
-    """--net eqn builds EQN with n-step Q-learning and an epsilon-greedy evaluation (training: test_nstep_q)."""
+    """--net eqn builds EQN with n-step Q-learning and an epsilon-greedy evaluation (training: test_agents_nstep_q)."""
     from jaxdc.agents import nstep_q
     from jaxdc.nets import EQN
 
