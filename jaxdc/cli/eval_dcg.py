@@ -91,7 +91,8 @@ def _strategies(text):
 
 def _add_network(p, required=True):
     what = p.add_mutually_exclusive_group(required=required)
-    what.add_argument("--checkpoint", metavar="PATH", help="a train.dcg run folder or an exported .msgpack")
+    what.add_argument("--checkpoint", metavar="PATH|NAME",
+                      help="a train.dcg run folder, an exported .msgpack or a shipped network's name")
     what.add_argument("--net", metavar="NAME", help="a shipped network (jaxdc/assets/dcg/NAME.msgpack), "
                       "e.g. vnn, imnn, emnn, omn_conn")
 

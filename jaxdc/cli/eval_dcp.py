@@ -76,8 +76,9 @@ def build_parser() -> argparse.ArgumentParser:
                       help="heuristic policy to evaluate; 'optimal' = exact value iteration (needs --total-reward 1); "
                            "enn/linear/cnn/eqn = a learned network (shipped, or --checkpoint)")
     what.add_argument("--table", choices=sorted(TABLES, key=lambda t: float(t)), help="reproduce a thesis table")
-    p.add_argument("--checkpoint", metavar="PATH",
-                   help="learned parameters: a train.dcp run folder or a .msgpack file (jaxdc.pretrained); "
+    p.add_argument("--checkpoint", metavar="PATH|NAME",
+                   help="learned parameters: a train.dcp run folder, a .msgpack file or a shipped network's name "
+                        "(e.g. enn_ppo; jaxdc.pretrained); "
                         "with --table, the table's learned row")
     p.add_argument("--run-seed", type=seed("--run-seed"), default=None, metavar="S",
                    help="--checkpoint of a train.dcp --seeds run: the seed whose network to evaluate")

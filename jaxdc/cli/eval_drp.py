@@ -234,13 +234,13 @@ def run_plan(s: PlanSettings) -> int:
     D, beta, psi = graph_arrays([graph])
     (reward, tours), = solve_instances(s.builder, s.clustering, D, beta, psi, [0], [graph.alpha])
     result = {"expected_reward": float(reward), "robots": len(tours), "tours": tours}
-    text = json_text({**result, "provenance": provenance()}, indent=None)
+    text = json_text({**result, "provenance": provenance()}, indent=None)  # the file records where it came from
     name = os.path.splitext(os.path.basename(s.graph))[0]
     plan_path = os.path.join(s.out, f"plan_{name}_{s.builder}_{s.clustering}.json")
     if not s.draw:
         atomic_write(plan_path, text)
     if s.json:
-        print(text)
+        print(json_text(result, indent=None))
     else:
         print(f"builder={s.builder} clustering={s.clustering}: {len(tours)} robot(s), "
               f"expected reward {reward:.4f}")
