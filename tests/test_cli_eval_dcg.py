@@ -212,7 +212,7 @@ def test_a_command_line_without_subcommand_is_an_evaluation(nets, tmp_path, caps
     assert implicit == explicit
     with pytest.raises(SystemExit):
         cli.main(["--help"])
-    assert capsys.readouterr().out.startswith("usage: python -m eval.dcg [-h] (--checkpoint PATH | --net NAME)")
+    assert capsys.readouterr().out.startswith("usage: python -m eval.dcg [-h] (--checkpoint PATH|NAME | --net NAME)")
     with pytest.raises(SystemExit):
         cli.main(["figure", "--help"])
     assert capsys.readouterr().out.startswith("usage: python -m eval.dcg figure [-h]")
