@@ -62,6 +62,7 @@ from jaxdc.dcg.exact.one_item import MAX_GRID_SIZE
 from jaxdc.dcg.opponents import CHASE_TIES, DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
 from jaxdc.io import (atomic_write_json, atomic_write_set, check_output_folder, enable_compilation_cache,
                       json_text)
+from jaxdc.provenance import provenance
 from jaxdc.viewer.bars import bar_chart_png, strategy_chart_png
 from jaxdc.viewer.media import animation_bytes, check_animation, strip_png
 
@@ -349,7 +350,7 @@ def _evaluate(args, command) -> int:
         args.error(str(e))
     r["command"] = command
     line = json_text(r, indent=None)  # strict: refused before anything is written
-    path = atomic_write_json(os.path.join(s.out, result_name(r)), r)
+    path = atomic_write_json(os.path.join(s.out, result_name(r)), {**r, "provenance": provenance()})
     if s.json:
         print(line)
     else:
@@ -393,7 +394,8 @@ def _figure(args, command) -> int:
                                      seed=s.play.seed, greedy=s.play.greedy)
             md = figure_markdown(exp, data, verdicts, gone, command, rel)
             atomic_write_set({**images,  # the figure's files land together
-                              os.path.join(s.out, f"figure_{name}.json"): json_text(payload) + "\n",
+                              os.path.join(s.out, f"figure_{name}.json"):
+                                  json_text({**payload, "provenance": provenance()}) + "\n",
                               os.path.join(s.out, f"figure_{name}.csv"): figure_csv(data.results),
                               os.path.join(s.out, f"figure_{name}.md"): md})
             print(md)
@@ -446,7 +448,7 @@ def _optimum(args, command) -> int:
                           command=command)
     path = os.path.join(s.out, optimum_name(out, s.episodes))
     line = json_text(out, indent=None)
-    atomic_write_json(path, out)
+    atomic_write_json(path, {**out, "provenance": provenance()})
     if s.json:
         print(line)
     else:

@@ -32,6 +32,7 @@ from jaxdc.agents import parallel
 from jaxdc.agents.common import RunConfig, Trainer, lr_schedule
 from jaxdc.core import memory
 from jaxdc.io import atomic_write_json
+from jaxdc.provenance import provenance
 from jaxdc.training import metadata as metadata_format
 from jaxdc.training.metrics import read_rows, tensorboard_writer, write_rows
 
@@ -228,6 +229,7 @@ class TrainingRun:
                 raise ValueError(f"{self.ckpt_dir} already holds checkpoints {existing}; "
                                  "pass --resume to continue or choose another --out")
             atomic_write_json(os.path.join(self.out, "config.json"), self.metadata)
+            atomic_write_json(os.path.join(self.out, "provenance.json"), provenance())
             return state
         if not existing:
             raise ValueError(f"--resume: no checkpoint found in {self.ckpt_dir}")
