@@ -25,3 +25,15 @@ def test_dispatch_reaches_the_program(capsys):
     with pytest.raises(SystemExit) as e:
         jaxdc_main.main(["eval", "dcp", "--policy", "safe_reward", "--grid-size", "1"])
     assert e.value.code == 2 and "--grid-size" in capsys.readouterr().err
+
+
+def test_a_program_runs_from_a_worker_thread():
+    import threading
+
+    from jaxdc.cli.runner import run
+
+    out = {}
+    t = threading.Thread(target=lambda: out.setdefault("rc", run(lambda argv: 7, "prog")))
+    t.start()
+    t.join()
+    assert out["rc"] == 7

@@ -22,6 +22,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import threading
 
 #: Exit statuses: a usage or input error (as argparse), Ctrl-C, SIGTERM.
 EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 130, 143
@@ -38,7 +39,9 @@ def _on_sigterm(signum, frame):
 def run(main, prog: str, argv=None) -> int:
     """``main(argv)``'s exit status, with the conventions above."""
     debug = bool(os.environ.get("JAXDC_DEBUG"))
-    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    # signal handlers can only be set from the main thread; elsewhere SIGTERM keeps its handler
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _on_sigterm) if main_thread else None
     try:
         return int(main(argv) or 0)
     except Terminated:
@@ -53,7 +56,8 @@ def run(main, prog: str, argv=None) -> int:
         print(f"{prog}: error: {e}", file=sys.stderr)
         return EXIT_USAGE
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        if main_thread:
+            signal.signal(signal.SIGTERM, previous)
 
 
 def exit_process(status: int):
