@@ -59,9 +59,12 @@ def _paths(path) -> tuple[str, str]:
 
 
 def non_finite_leaf(params) -> str | None:
-    """The ``/``-joined path of the first parameter array holding a NaN or an infinity, or ``None``."""
+    """The ``/``-joined path of the first parameter array holding a NaN or an infinity, or ``None``
+    (traced leaves, inside a jit, are skipped: they are checked where their values are known)."""
     flat = jax.tree_util.tree_flatten_with_path(params)[0]
     for path, leaf in flat:
+        if isinstance(leaf, jax.core.Tracer):
+            continue
         a = np.asarray(leaf)
         if np.issubdtype(a.dtype, np.inexact) and not np.all(np.isfinite(a)):
             return "/" + "/".join(str(getattr(k, "key", getattr(k, "idx", k))) for k in path)
@@ -163,10 +166,7 @@ def load(path, **expected) -> tuple[dict, dict]:
             params = serialization.msgpack_restore(f.read())
     except Exception as e:  # msgpack raises several types on a damaged file
         raise ValueError(f"parameter file {blob} unreadable (corrupt or truncated?): {e}") from None
-    bad = non_finite_leaf(params)
-    if bad is not None:
-        raise ValueError(f"parameter file {blob}: parameter {bad} holds NaN or infinity; the file is damaged "
-                         "or was saved from a diverged run")
+    check_finite(params, f"parameter file {blob}")
     return params, meta
 
 
@@ -209,10 +209,12 @@ def resolve(path, problem: str) -> str:
     return path
 
 
-def _check_finite(params, source: str) -> None:
+def check_finite(params, source: str) -> None:
+    """``ValueError`` naming ``source`` and the first parameter that holds NaN or infinity (a damaged file or a
+    diverged run); every loader of trained parameters calls it."""
     bad = non_finite_leaf(params)
     if bad is not None:
-        raise ValueError(f"{source}: parameter {bad} holds NaN or infinity; the checkpoint is damaged or "
+        raise ValueError(f"{source}: parameter {bad} holds NaN or infinity; the file is damaged or "
                          "was saved from a diverged run")
 
 
@@ -282,7 +284,7 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         if not seeds:
             state, meta = checkpoint.restore(ckpt, restore_target(name, meta, source), {"net": name},
                                              upgrade=upgrade)
-            _check_finite(state.params, source)
+            check_finite(state.params, source)
             return name, state.params, dict(meta, problem=problem, updates=checkpoint.latest_step(ckpt)), ckpt
         if run_seed not in seeds:
             raise ValueError(f"{source} holds the runs of seeds {seeds}: choose one with run_seed "
@@ -292,7 +294,7 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         state, meta = checkpoint.restore(ckpt, target, {"net": name}, upgrade=upgrade)
         i = seeds.index(run_seed)
         params = jax.tree_util.tree_map(lambda x: x[i], state.params)
-        _check_finite(params, f"{source} (seed {run_seed})")
+        check_finite(params, f"{source} (seed {run_seed})")
         meta = {k: v for k, v in meta.items() if k != "seeds"}
         return name, params, dict(meta, seed=run_seed, problem=problem, updates=checkpoint.latest_step(ckpt)), ckpt
     params, meta = load(blob, problem=problem, net=name)

@@ -175,7 +175,7 @@ def test_network_with_nan_parameters_refused(capsys, tmp_path, tiny):
 def test_check_finite_names_the_file():
     params = {"params": {"Dense_0": {"kernel": np.array([1.0, np.inf], np.float32)}}}
     with pytest.raises(ValueError, match=r"some\.msgpack.*Dense_0"):
-        learned_lib.check_finite(params, "some.msgpack")
+        pretrained.check_finite(params, "some.msgpack")
 
 
 # -- strict JSON and undefined statistics -----------------------------------------------------------------

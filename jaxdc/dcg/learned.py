@@ -133,21 +133,12 @@ def _check(name, net, params, meta, source):
                       "was it trained on another grid size or history length?")
 
 
-def check_finite(params, source) -> None:
-    """``ValueError`` naming ``source`` and the first parameters if any parameter is NaN or infinite."""
-    bad = [jax.tree_util.keystr(p) for p, x in jax.tree_util.tree_flatten_with_path(params)[0]
-           if np.issubdtype(np.asarray(x).dtype, np.inexact) and not np.all(np.isfinite(np.asarray(x)))]
-    if bad:
-        raise ValueError(f"{source}: the network parameters hold NaN or infinity (in {', '.join(bad[:3])}"
-                         f"{', ...' if len(bad) > 3 else ''}); the file is damaged or training diverged")
-
-
 def load(path, net: str | None = None) -> Learned:
     """Load a trained DCG network from a parameter file (``.msgpack``) or a ``train.dcg`` run folder.
 
     ``net``, when given, must be the stored network's name (else ``ValueError``;
     :func:`jaxdc.pretrained.load_trained`). Parameters holding NaN or infinity are refused
-    (:func:`check_finite`).
+    (:func:`jaxdc.pretrained.check_finite`).
     """
     def target(name, meta, source):
         return train_state_template(make_network(name, meta.get("history", DEFAULT_SETTING["history"])), meta, source)
@@ -155,7 +146,6 @@ def load(path, net: str | None = None) -> Learned:
     name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net)
     module = make_network(name, meta.get("history", DEFAULT_SETTING["history"]))
     params = _check(name, module, params, meta, source)
-    check_finite(params, source)
     return Learned(name, module, params, meta, source)
 
 

@@ -73,22 +73,8 @@ def check_params(net_name: str, net, params, grid_size: int, source: str):
     params = check_like(init_params(net, grid_size), params, source,
                         f"a {net_name} network on a {grid_size}x{grid_size} grid",
                         "was it trained on another grid size?")
-    check_finite_params(params, source)
+    pretrained.check_finite(params, source)
     return params
-
-
-def check_finite_params(params, source: str) -> None:
-    """``ValueError`` naming ``source`` and the first parameter that holds NaN or infinity (a diverged network)."""
-    for path, leaf in jax.tree_util.tree_flatten_with_path(params)[0]:
-        if isinstance(leaf, jax.core.Tracer):  # inside a jit: checked where the values are known
-            continue
-        x = np.asarray(leaf)
-        bad = ~np.isfinite(x)
-        if bad.any():
-            key = jax.tree_util.keystr(path)
-            kinds = " and ".join(k for k, m in (("NaN", np.isnan(x)), ("infinity", np.isinf(x))) if m.any())
-            raise ValueError(f"{source}: parameter {key} holds {kinds} ({int(bad.sum())} of {x.size} values); "
-                             "the network diverged in training and cannot be evaluated")
 
 
 def _grid_checker(grid_size: int | None):
