@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from jaxdc.core.validate import FLOAT32_MAX, INT32_MAX, SEED_MAX, check_float
+from jaxdc.core.validate import INT32_MAX, SEED_MAX, check_float
 
 
 def _number(name: str, text: str, **limits) -> float:
@@ -38,9 +38,11 @@ def _whole(name: str, text: str, low: int, high: int) -> int:
     return v
 
 
-def finite_float(name: str, low: float | None = None, high: float | None = None, low_open: bool = False):
-    """argparse type: a finite float in ``[low, high]`` (``(low, high]`` with ``low_open``)."""
-    return lambda text: _number(name, text, low=low, high=high, low_open=low_open)
+def real(name: str, low: float | None = None, high: float | None = None, low_open: bool = False,
+         allow_inf: bool = False):
+    """argparse type: a float in ``[low, high]`` (``(low, high]`` with ``low_open``; no bound when ``None``) that
+    fits float32; NaN refused, ``+inf`` only with ``allow_inf``."""
+    return lambda text: _number(name, text, low=low, high=high, low_open=low_open, allow_inf=allow_inf)
 
 
 def positive_float(name: str, allow_inf: bool = False, high: float | None = None):
@@ -94,19 +96,5 @@ def seed_list(name: str):
         if len(set(seeds)) != len(seeds):
             raise argparse.ArgumentTypeError(f"{name} must be distinct, got {text!r}")
         return seeds
-
-    return parse
-
-
-def real(name: str, allow_inf: bool = False):
-    """argparse type: any real number that fits float32 (NaN refused; ``+inf`` too unless ``allow_inf``)."""
-    what = "a finite number or inf" if allow_inf else "a finite number"
-
-    def parse(text):
-        try:
-            return _number(name, text, allow_inf=allow_inf)
-        except argparse.ArgumentTypeError:
-            raise argparse.ArgumentTypeError(f"{name} must be {what} (|x| <= {FLOAT32_MAX:.4g}), "
-                                             f"got {text!r}") from None
 
     return parse

@@ -74,7 +74,9 @@ def check_float(name: str, value, low: float | None = None, high: float | None =
         raise ValueError(f"{name} must be {rng}, got NaN")
     if math.isinf(v):
         if not (allow_inf and v > 0):
-            raise ValueError(f"{name} must be {'a finite number ' if not allow_inf else ''}{rng}, got {v}")
+            bounded = low is not None or high is not None
+            raise ValueError(f"{name} must be {'a finite number ' if bounded and not allow_inf else ''}{rng}, "
+                             f"got {v}")
         return v
     if (low is not None and (v <= low if low_open else v < low)) or (high is not None and v > high):
         raise ValueError(f"{name} must be {rng}, got {v:g}")
@@ -103,5 +105,5 @@ def _float_range_text(low, high, low_open, allow_inf) -> str:
     if high is not None:
         parts.append(f"<= {high:.10g}")
     if not parts:
-        return "a number (or inf)" if allow_inf else "a finite number"
+        return "a finite number or +inf" if allow_inf else "a finite number"
     return " and ".join(parts) + (" (or inf)" if allow_inf else "")
