@@ -176,8 +176,13 @@ def check_grid_size(grid_size, max_cells: int | None = None) -> int:
 
 def validate_risk_map(risk, grid_size: int | None = None) -> np.ndarray:
     """Check a user risk map: a square ``N x N`` array of finite values in ``[0, 1]`` with base risk 0."""
-    if _holds_bool(risk):
-        raise TypeError("risk map must hold numbers in [0, 1], not booleans (true/false)")
+    bad = _first_non_number(risk)
+    if bad is not None:
+        cell, v = bad
+        kind = "a boolean" if isinstance(v, (bool, np.bool_)) else f"not a number ({type(v).__name__})"
+        shown = str(v).lower() if isinstance(v, (bool, np.bool_)) else repr(v)
+        raise TypeError(f"risk map cell ({', '.join(map(str, cell))}) is {kind}: {shown}; "
+                        "risks must be numbers in [0, 1]")
     try:
         arr = np.asarray(risk, dtype=np.float32)
     except (TypeError, ValueError) as e:
@@ -199,15 +204,26 @@ def validate_risk_map(risk, grid_size: int | None = None) -> np.ndarray:
     return arr
 
 
-def _holds_bool(value) -> bool:
-    """Whether a risk map given as an array or nested lists holds booleans (``np.asarray`` would read them as 0/1)."""
-    if isinstance(value, (bool, np.bool_)):
-        return True
+def _first_non_number(value, where=()):
+    """``(cell, value)`` of the first cell of a risk map given as nested lists or an array that is a boolean
+    or no real number (``np.asarray`` would read ``True`` as 1), or ``None``."""
+    if not isinstance(value, (list, tuple, np.ndarray)) and hasattr(value, "shape") and hasattr(value, "dtype"):
+        value = np.asarray(value)  # a JAX array or another array type
     if isinstance(value, np.ndarray):
-        return value.dtype == np.bool_ or (value.dtype == object and any(_holds_bool(v) for v in value.ravel()))
+        if value.dtype == np.bool_:
+            return ((0,) * value.ndim, bool(value.flat[0])) if value.size else ((), None)
+        if value.dtype != object:
+            return None
+        value = value.tolist()
     if isinstance(value, (list, tuple)):
-        return any(_holds_bool(v) for v in value)
-    return False
+        for i, v in enumerate(value):
+            bad = _first_non_number(v, where + (i,))
+            if bad is not None:
+                return bad
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        return where, value
+    return None
 
 
 def as_risk_map(risk, grid_size: int = 8) -> np.ndarray:

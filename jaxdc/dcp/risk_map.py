@@ -3,39 +3,17 @@
 from __future__ import annotations
 
 import json
-import numbers
 import os
 
 import numpy as np
 
 from jaxdc.core import grid
-from jaxdc.core.validate import FLOAT32_MAX
 
 
 def _refuse_constant(name: str, path: str):
     def refuse(constant):
         raise ValueError(f"{name} {path!r}: {constant} is not a risk in [0, 1] (NaN and Infinity are refused)")
     return refuse
-
-
-def _json_cells(value, name: str, path: str):
-    """``value`` (a JSON nested list) unchanged if every cell is a number; else a ``ValueError`` naming the cell."""
-    def walk(v, where):
-        if isinstance(v, list):
-            for i, x in enumerate(v):
-                walk(x, where + (i,))
-        elif isinstance(v, bool) or not isinstance(v, numbers.Real):
-            cell = ", ".join(map(str, where))
-            kind = "a boolean" if isinstance(v, bool) else f"not a number ({type(v).__name__})"
-            raise ValueError(f"{name} {path!r}: cell ({cell}) is {kind}: {json.dumps(v)}; "
-                             "risks must be numbers in [0, 1]")
-        elif abs(v) > FLOAT32_MAX:
-            cell = ", ".join(map(str, where))
-            raise ValueError(f"{name} {path!r}: cell ({cell}) is {v:g}; risks must be finite numbers in [0, 1]")
-    if not isinstance(value, list):
-        raise ValueError(f"{name} {path!r}: must hold an N x N nested list of numbers, got {type(value).__name__}")
-    walk(value, ())
-    return value
 
 
 def load_risk_map(path: str, name: str = "risk map") -> np.ndarray:
@@ -61,7 +39,7 @@ def load_risk_map(path: str, name: str = "risk map") -> np.ndarray:
                 raise ValueError(f"{name} {path!r}: must hold real numbers, got dtype {arr.dtype}")
         else:
             with open(path) as f:
-                arr = _json_cells(json.load(f, parse_constant=_refuse_constant(name, path)), name, path)
+                arr = json.load(f, parse_constant=_refuse_constant(name, path))
     except (ValueError, OSError, EOFError, UnicodeDecodeError) as e:
         if str(e).startswith(name):
             raise ValueError(str(e)) from None
