@@ -177,3 +177,14 @@ def test_check_grid_size():
         grid.check_grid_size(2.5)
     with pytest.raises(TypeError, match="grid_size"):
         grid.check_grid_size(True)
+
+
+def test_risk_map_cells_that_are_no_numbers_are_named():
+    import jax.numpy as jnp
+
+    for bad, needle in (([[0, True], [0, 0]], r"cell \(0, 1\) is a boolean: true"),
+                        ([[0, 0.1], ["x", 0]], r"cell \(1, 0\) is not a number \(str\)"),
+                        (np.zeros((2, 2), bool), r"cell \(0, 0\) is a boolean")):
+        with pytest.raises(TypeError, match=needle):
+            grid.validate_risk_map(bad)
+    assert grid.validate_risk_map(jnp.zeros((3, 3))).dtype == np.float32
