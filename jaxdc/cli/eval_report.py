@@ -9,9 +9,10 @@ The page is built by :func:`jaxdc.report.build_page`: the DCP tables with
 their commands and ``Δ/SE`` columns, the notes, the DCG figures and the
 benchmark tables as their commands wrote them.
 
-``--notes`` defaults to ``docs/results_notes.md`` when that file exists (else
-no notes); a ``--notes FILE`` that does not exist is an error, and
-``--notes none`` leaves the notes out. ``--out`` is checked before the page is
+``--notes`` defaults to ``docs/results_notes.md`` and ``--dcg-notes`` (the
+notes that end the DCG section) to ``docs/results_notes_dcg.md``, each when
+that file exists (else no notes); a FILE that does not exist is an error,
+and ``none`` leaves the notes out. ``--out`` is checked before the page is
 built; a missing or damaged results file is named in one ``error:`` line (exit
 status 2), and Ctrl-C exits 130 leaving the previous page.
 """
@@ -30,6 +31,8 @@ from jaxdc.report import build_page
 PROG = "python -m eval.report"
 #: The notes appended when ``--notes`` is not given (only if the file exists).
 DEFAULT_NOTES = os.path.join("docs", "results_notes.md")
+#: The notes that end the DCG section when ``--dcg-notes`` is not given (only if the file exists).
+DEFAULT_DCG_NOTES = os.path.join("docs", "results_notes_dcg.md")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -37,6 +40,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--results", default="results", help="results folder (default results/)")
     p.add_argument("--notes", default=None,
                    help=f"hand-written analysis appended to the page (default {DEFAULT_NOTES} if it exists; "
+                        "'none': no notes)")
+    p.add_argument("--dcg-notes", default=None,
+                   help=f"hand-written notes ending the DCG section (default {DEFAULT_DCG_NOTES} if it exists; "
                         "'none': no notes)")
     p.add_argument("--out", default=os.path.join("docs", "results.md"))
     return p
@@ -48,24 +54,31 @@ class ReportSettings:
 
     results: str  # the results folder
     notes: str | None  # the hand-written notes (None: none)
+    dcg_notes: str | None  # the notes ending the DCG section (None: none)
     out: str  # the page
+
+
+def _notes(value: str | None, default: str, flag: str) -> str | None:
+    """A notes file: ``default`` if it exists when ``value`` is ``None``, none for ``'none'``; ``ValueError`` for a
+    file that does not exist."""
+    if value is None:
+        return default if os.path.isfile(default) else None
+    if value.lower() == "none":
+        return None
+    if not os.path.isfile(value):
+        raise ValueError(f"{flag} {value!r}: no such file (pass {flag} none for no notes)")
+    return value
 
 
 def settle(args) -> ReportSettings:
     """The settings of the parsed arguments; ``ValueError`` for a missing ``--notes`` file or an unwritable
     ``--out``."""
-    if args.notes is None:
-        notes = DEFAULT_NOTES if os.path.isfile(DEFAULT_NOTES) else None
-    elif args.notes.lower() == "none":
-        notes = None
-    elif not os.path.isfile(args.notes):
-        raise ValueError(f"--notes {args.notes!r}: no such file (pass --notes none for no notes)")
-    else:
-        notes = args.notes
+    notes = _notes(args.notes, DEFAULT_NOTES, "--notes")
+    dcg_notes = _notes(args.dcg_notes, DEFAULT_DCG_NOTES, "--dcg-notes")
     if os.path.exists(args.results) and not os.path.isdir(args.results):
         raise ValueError(f"--results {args.results!r} is a file, not a folder")
     check_output_path(args.out, "--out")
-    return ReportSettings(results=args.results, notes=notes, out=args.out)
+    return ReportSettings(results=args.results, notes=notes, dcg_notes=dcg_notes, out=args.out)
 
 
 def main(argv=None) -> int:
@@ -74,7 +87,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     try:
         settings = settle(args)
-        page = build_page(settings.results, settings.notes, os.path.dirname(os.path.abspath(settings.out)))
+        page = build_page(settings.results, settings.notes, os.path.dirname(os.path.abspath(settings.out)),
+                          settings.dcg_notes)
     except (FileNotFoundError, ValueError) as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return 2

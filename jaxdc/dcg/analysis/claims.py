@@ -445,6 +445,10 @@ def _verdicts(exp: Experiment, results: dict, standard: dict | None) -> list[Ver
     return rows
 
 
+#: The mark before a claim judged again on the strong (beyond-the-thesis) networks.
+STRONG_MARK = "[strong] "
+
+
 def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list[Verdict]:
     """The :class:`Verdict` rows of ``exp``: each claim of :data:`CLAIMS` on the faithful bars, then (where
     there are strong bars) each claim again on the strong ones, marked ``[strong]``. ``results[group][label]``
@@ -453,6 +457,6 @@ def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list
     rows = _verdicts(exp, family(results, False), family(standard, False) if standard else None)
     strong = family(results, True)
     if any(strong.values()):
-        rows += [v._replace(claim="[strong] " + v.claim)
+        rows += [v._replace(claim=STRONG_MARK + v.claim)
                  for v in _verdicts(exp, strong, family(standard, True) if standard else None)]
     return rows
