@@ -76,7 +76,8 @@ LAYOUTS = ("loop", "scan")
 THREADS = ("default", "1")
 SB3_VEC_ENVS = ("dummy", "jaxvec")
 T_MAX = 32
-RESULTS_DIR = ROOT / "results" / "benchmarks"
+#: The default output folder, under the current directory (like every other command).
+RESULTS_DIR = Path("results") / "benchmarks"
 #: The DCP of the benchmark, for SB3's gymnasium.make (same as ``make_env("dcp")``).
 GYM_KWARGS = {"grid_size": 8, "total_reward": 30, "risk": "high", "energy": (8.0, 16.0), "max_steps": 200}
 #: Targets of the issue (learning issue, "Speed").
