@@ -179,9 +179,10 @@ def test_table_results_markdown_and_payload():
     assert table_markdown_file(spec, "python -m eval.dcp --table 4.3", "T") == (
         f"### Table 4.3: {spec.caption}\n\n`python -m eval.dcp --table 4.3`\n\nT\n")
     payload = table_payload(spec, "cmd", rows, incr, _FakeLearned())
-    assert list(payload) == ["table", "caption", "command", "thesis", "ours", "incr", "learned"]
+    assert list(payload) == ["table", "caption", "command", "thesis", "ours", "incr", "learned", "best"]
     assert payload["thesis"]["enn"] == list(spec.rows["enn"])
-    assert payload["learned"] == {"net": "enn", "source": "fake.msgpack", "trained": _FakeLearned().setting(),
+    assert payload["best"] is None
+    assert payload["learned"] == {"net": "enn", "row": "enn", "source": "fake.msgpack", "trained": _FakeLearned().setting(),
                                   "steps": 5, "seed": 2, "command": "python -m train.dcp"}
     assert table_payload(spec, "cmd", rows, {}, None)["learned"] is None
 
@@ -291,6 +292,46 @@ def test_cli_table_with_learned_row_and_incr(tmp_path, capsys):
     # the thesis' own column, e.g. Table 4.9 linear energy over Safe-Neither: printed 88.52 %
     assert data["incr"]["safe_neither"]["energy"][0] == pytest.approx(88.47, abs=0.1)
     assert "incr.% over" in (tmp_path / "table_4.9.md").read_text()
+
+
+def test_cli_table_best_row_is_the_best_shipped_candidate(tmp_path, capsys):
+    from jaxdc.dcp.best_learner import candidates
+    from jaxdc.dcp.tables import TABLES
+
+    names = {c.name for c in candidates(TABLES["4.7"])}
+    assert names == {"enn_ppo_energy16_32"}  # the only beyond-the-thesis ENN trained at energy 16/32
+    assert cli.main(["--table", "4.7", "--episodes", "200", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    data = json.loads((tmp_path / "table_4.7.json").read_text())
+    assert list(data["ours"])[-2:] == ["enn", "enn best"] and data["learned"]["row"] == "enn"
+    best = data["best"]
+    assert best["row"] == "enn best" and best["thesis_row"] == "enn" and best["checkpoint"] == "enn_ppo_energy16_32"
+    assert best["differs"] == "the PPO-style option" and best["trained"]["energy"] == [16.0, 32.0]
+    assert data["ours"]["enn best"]["episodes"] == 200
+    for text in (out, (tmp_path / "table_4.7.md").read_text()):
+        assert "| enn best: enn_ppo_energy16_32 | — |" in text
+        assert "`enn_ppo_energy16_32` (beyond the thesis: the PPO-style option)" in text
+    assert cli.main(["--table", "4.7", "--episodes", "200", "--out", str(tmp_path), "--no-best"]) == 0
+    data = json.loads((tmp_path / "table_4.7.json").read_text())
+    assert data["best"] is None and "enn best" not in data["ours"]
+
+
+def test_best_candidates_are_read_from_the_metadata():
+    from jaxdc.dcp.best_learner import candidates, differs, tables_of
+    from jaxdc.dcp.tables import TABLES
+
+    meta = {"tables": "4.3, 4.6, 4.8 (beyond the thesis: the PPO-style option, 1..30 units)"}
+    assert tables_of(meta) == ("4.3", "4.6", "4.8") and differs(meta) == "the PPO-style option, 1..30 units"
+    assert differs({"tables": "4.3, 4.6, 4.8"}) is None
+    single = {c.name: c for c in candidates(TABLES["4.8"])}
+    assert "enn" not in single and single["enn_single_item"].greedy and not single["enn_ppo_mix"].greedy
+    assert candidates(TABLES["4.1"]) == [] and candidates(TABLES["4.4"]) == []
+
+
+def test_cli_no_best_only_with_table(capsys):
+    with pytest.raises(SystemExit) as e:
+        cli.main(["--policy", "safe_reward", "--no-best", "--episodes", "10"])
+    assert e.value.code == 2 and "--no-best applies only to --table" in capsys.readouterr().err
 
 
 def test_cli_optimal_policy_matches_its_exact_value(capsys):

@@ -122,3 +122,22 @@ def test_eval_report_shim_is_the_cli():
     from eval import report as shim
 
     assert shim.main is report.main and shim.build_parser is report.build_parser
+
+
+def test_report_shows_best_row_against_the_thesis_learned_row(tmp_path):
+    d = tmp_path / "results" / "dcp"
+    d.mkdir(parents=True)
+    row = {"reward": {"mean": 13.0, "sd": 7.0}, "energy": {"mean": 24.0, "sd": 17.0},
+           "rpe": {"mean": 0.68, "sd": 0.31}, "episodes": 10000}
+    best = dict(row, reward={"mean": 14.8, "sd": 7.0})
+    payload = {"table": "4.3", "caption": "high risk", "command": "python -m eval.dcp --table 4.3",
+               "thesis": {"enn": [13.16, 7.17, 23.87, 16.88, 0.685, 0.314]}, "ours": {"enn": row, "enn best": best},
+               "learned": {"net": "enn", "row": "enn", "source": "enn"},
+               "best": {"row": "enn best", "thesis_row": "enn", "checkpoint": "enn_long", "source": "enn_long",
+                        "differs": "16M steps", "trained": {}}}
+    (d / "table_4.3.json").write_text(json.dumps(payload))
+    out = tmp_path / "results.md"
+    assert report.main(["--results", str(tmp_path / "results"), "--out", str(out), "--notes", "none"]) == 0
+    page = out.read_text()
+    assert "| enn best: enn_long | 13.16 ± 7.17 | 14.80 ± 7.00 | +22.9 |" in page  # (14.80-13.16)/(7.17/100)
+    assert "the best shipped jaxdc learner for this table, `enn_long` (16M steps)" in page

@@ -20,7 +20,10 @@ for the argmax), EQN is epsilon-greedy with ``--epsilon`` 0.05 (section 4.5.5).
 
 ``--table`` fills the learned row of Tables 4.3-4.10 (ENN; the linear learner
 in 4.9, EQN in 4.10) and the incr.% columns: the learner's increment over each
-navigator as a percentage of the navigator's mean. As in the thesis, the ENN of
+navigator as a percentage of the navigator's mean. Below the learned row, a
+row ``<net> best`` plays the best shipped jaxdc learner of that table (beyond
+the thesis: :mod:`jaxdc.dcp.best_learner`; named, with how its recipe differs,
+under the table; ``--no-best`` leaves it out). As in the thesis, the ENN of
 Table 4.3 also plays Tables 4.6 and 4.8; Table 4.7 has its own ENN (energy 16/32).
 Results of ``--table`` are written to ``--out`` (default ``results/dcp``) as
 ``table_<T>.json`` and ``table_<T>.md``, which land together (an interrupted
@@ -54,10 +57,12 @@ from jaxdc.dcp.learned import EQN_EPSILON, NETS, Learned
 from jaxdc.dcp.navigators import POLICIES
 from jaxdc.dcp.planners import CF_DISTANCES, PlannerConfig
 from jaxdc.dcp.risk_map import load_risk_map
-from jaxdc.dcp.rows import Playing, evaluate_rows, table_policies
+from jaxdc.dcp.best_learner import best_row
+from jaxdc.dcp.best_learner import row_name as best_row_name
+from jaxdc.dcp.rows import Playing, evaluate_row, evaluate_rows, table_policies
 from jaxdc.dcp.setting import DEFAULT_SETTING, EnvOptions, Setting, evaluation_setting
 from jaxdc.dcp.table_learner import check_learner, shipped_learner
-from jaxdc.dcp.table_results import markdown_table, table_markdown_file, table_payload
+from jaxdc.dcp.table_results import best_markdown, markdown_table, table_markdown_file, table_payload
 from jaxdc.dcp.tables import TABLES, TableSpec, incr_rows
 from jaxdc.io import atomic_write_set, check_output_folder, enable_compilation_cache, json_text
 from jaxdc.provenance import provenance
@@ -87,6 +92,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--epsilon", type=unit_interval("--epsilon"), default=None,
                    help=f"EQN's evaluation epsilon (section 4.5.5: {EQN_EPSILON}); only where EQN is evaluated")
     p.add_argument("--no-learned", action="store_true", help="--table: navigator rows only")
+    p.add_argument("--no-best", action="store_true",
+                   help="--table: leave out the row of the best shipped jaxdc learner (beyond the thesis)")
     p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default=None,
                    help="risk preset (Table 4.2; default high, or the learned network's)")
     p.add_argument("--risk-map", metavar="FILE", help="N x N risk map (.npy or JSON); overrides --risk")
@@ -134,6 +141,7 @@ class EvalDCPSettings:
     json: bool
     out: str
     command: str  # the command line, as the results files record it
+    best: bool = False  # --table: add the row of the best shipped learner (jaxdc.dcp.best_learner)
 
 
 def resolve_learned(args, spec: TableSpec | None = None) -> Learned | None:
@@ -213,15 +221,35 @@ def settle(args, spec: TableSpec | None, learned: Learned | None, argv=None) -> 
     return EvalDCPSettings(
         table=spec, policies=table_policies(spec, learned) if spec else (args.policy,), learned=learned,
         setting=setting, options=options, playing=playing, json=args.json, out=args.out or DEFAULT_OUT,
-        command=PROG + " " + " ".join(argv if argv is not None else sys.argv[1:]))
+        command=PROG + " " + " ".join(argv if argv is not None else sys.argv[1:]),
+        best=bool(spec and learned is not None and not args.no_best))
 
 
-def write_table(settings: EvalDCPSettings, rows: dict, incr: dict, table: str) -> str:
+def play_best(settings: EvalDCPSettings, rows: dict, progress=None):
+    """Add the best shipped learner's row to ``rows`` (:func:`jaxdc.dcp.best_learner.best_row`: each candidate on
+    the same episodes); ``(candidate, row name)`` or ``None`` when the table has none."""
+    def evaluate(c):
+        playing = dataclasses.replace(settings.playing, greedy=settings.playing.greedy or c.greedy)
+        s = evaluate_row(c.learned.net_name, settings.setting, settings.options, playing, c.learned)
+        if progress:
+            progress(c.name, s)
+        return s
+
+    found = best_row(settings.table, evaluate, settings.setting.grid_size)
+    if found is None:
+        return None
+    c, summary = found
+    name = best_row_name(c.learned.net_name)
+    rows[name] = summary
+    return c, name
+
+
+def write_table(settings: EvalDCPSettings, rows: dict, incr: dict, table: str, best=None) -> str:
     """Write ``table_<T>.json`` (strict JSON) and ``table_<T>.md`` into ``settings.out``, landing together;
     the JSON's path."""
     spec = settings.table
     path = os.path.join(settings.out, f"table_{spec.name}.json")
-    record = {**table_payload(spec, settings.command, rows, incr, settings.learned), "provenance": provenance()}
+    record = {**table_payload(spec, settings.command, rows, incr, settings.learned, best), "provenance": provenance()}
     payload = json_text(record) + "\n"
     atomic_write_set({path: payload,
                       os.path.join(settings.out, f"table_{spec.name}.md"):
@@ -242,7 +270,8 @@ def main(argv=None) -> int:
         if given:
             parser.error(f"--table runs the thesis' own setting; it cannot take {', '.join(given)}")
     else:
-        unused = [f for f, v in (("--out", args.out is not None), ("--no-learned", args.no_learned)) if v]
+        unused = [f for f, v in (("--out", args.out is not None), ("--no-learned", args.no_learned),
+                                 ("--no-best", args.no_best)) if v]
         if unused:
             parser.error(f"{' and '.join(unused)} appl{'y' if len(unused) > 1 else 'ies'} only to --table; "
                          f"--policy {args.policy} evaluates one policy and writes no files")
@@ -270,9 +299,10 @@ def main(argv=None) -> int:
         settings = settle(args, spec, learned, argv)
         rows = evaluate_rows(settings.policies, settings.setting, settings.options, settings.playing,
                              settings.learned, progress)
+        best = play_best(settings, rows, progress) if settings.best else None
     except (TypeError, ValueError, MemoryError) as e:
         parser.error(str(e))
-    return show(settings, rows)
+    return show(settings, rows, best)
 
 
 def _mean(stat: dict, digits: int) -> str:
@@ -280,14 +310,19 @@ def _mean(stat: dict, digits: int) -> str:
     return "—" if stat["mean"] is None else f"{stat['mean']:.{digits}f}"
 
 
-def show(settings: EvalDCPSettings, rows: dict) -> int:
-    """Print the rows (one JSON object with ``--json``, else the markdown table); a table also writes its files."""
+def show(settings: EvalDCPSettings, rows: dict, best=None) -> int:
+    """Print the rows (one JSON object with ``--json``, else the markdown table); a table also writes its files.
+    ``best``: the best shipped learner's ``(candidate, row name)``, named under the table."""
     spec = settings.table
     learner = settings.learned.net_name if settings.learned is not None else None
     incr = incr_rows(spec, rows, learner) if spec else {}
-    table = markdown_table(spec, rows, incr)
+    shown = rows if best is None else {(f"{k}: {best[0].name}" if k == best[1] else k): v for k, v in rows.items()}
+    table = markdown_table(spec, shown, incr)
+    if best is not None:
+        table = table.replace("\n\n| incr.% over", f"\n\n{best_markdown(best)}\n\n| incr.% over", 1) \
+            if "\n\n| incr.% over" in table else table + "\n\n" + best_markdown(best)
     if spec:
-        path = write_table(settings, rows, incr, table)
+        path = write_table(settings, rows, incr, table, best)
     if settings.json:
         print(json_text(rows if spec else rows[settings.policies[0]], indent=None))
     else:

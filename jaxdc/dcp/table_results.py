@@ -57,17 +57,40 @@ def table_markdown_file(spec, command: str, table: str) -> str:
     return f"### Table {spec.name}: {spec.caption}\n\n`{command}`\n\n{table}\n"
 
 
+def _source(learned) -> str:
+    return os.path.relpath(learned.source) if os.path.isabs(learned.source) else learned.source
+
+
 def learned_info(learned) -> dict:
-    """What the results JSON says about a learned row: network, source and how it was trained."""
+    """What the results JSON says about a learned row: network, its row, source and how it was trained."""
     meta = learned.metadata
-    info = {"net": learned.net_name, "source": os.path.relpath(learned.source) if os.path.isabs(learned.source)
-            else learned.source, "trained": learned.setting()}
+    info = {"net": learned.net_name, "row": learned.net_name, "source": _source(learned),
+            "trained": learned.setting()}
     info.update({k: meta[k] for k in ("steps", "seed", "command") if k in meta})
     return info
 
 
-def table_payload(spec, command: str, rows: dict, incr: dict, learned=None) -> dict:
-    """The record of ``table_<T>.json``: table, caption, command, the thesis' rows, ours, Incr.%, the learner."""
+def best_info(best) -> dict | None:
+    """What the results JSON says about the best row (:mod:`jaxdc.dcp.best_learner`): its row, the thesis row it
+    is compared with, the shipped name, source, how its recipe differs, its training setting, greedy play."""
+    if best is None:
+        return None
+    c, row = best
+    return {"row": row, "thesis_row": c.learned.net_name, "checkpoint": c.name, "source": _source(c.learned),
+            "differs": c.differs, "trained": c.learned.setting(), "greedy": c.greedy,
+            **{k: c.learned.metadata[k] for k in ("steps", "command") if k in c.learned.metadata}}
+
+
+def best_markdown(best) -> str:
+    """The line under a table naming its best row's network and how it differs from the thesis' recipe."""
+    c, row = best
+    return (f"Row `{row}`: the best shipped jaxdc learner for this table, `{c.name}` (beyond the thesis: {c.differs}"
+            f"{'; played greedily' if c.greedy else ''}), on the same episodes.")
+
+
+def table_payload(spec, command: str, rows: dict, incr: dict, learned=None, best=None) -> dict:
+    """The record of ``table_<T>.json``: table, caption, command, the thesis' rows, ours, Incr.%, the learner and
+    the best shipped learner (``best``: ``(candidate, row)`` or ``None``)."""
     return {"table": spec.name, "caption": spec.caption, "command": command,
             "thesis": {k: list(v) for k, v in spec.rows.items()}, "ours": rows, "incr": incr,
-            "learned": learned_info(learned) if learned is not None else None}
+            "learned": learned_info(learned) if learned is not None else None, "best": best_info(best)}

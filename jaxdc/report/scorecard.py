@@ -19,28 +19,18 @@ from the stored results (``results/``), never typed in:
 from __future__ import annotations
 
 import glob
-import math
 import os
 import re
 
 from jaxdc.dcg.analysis.claims import STRONG_MARK
 from jaxdc.drp.claims import judge_claims, rows_by_key
+from jaxdc.report.dcp_tables import delta_se
 from jaxdc.report.stored import read_json, reading, require_fields, table_files
 
 #: ``|Δ/SE|`` up to this is agreement within sampling noise (the thesis' own reruns moved by about 3 SE).
 REPRODUCED_SE = 3.0
 #: The share of an exact optimum or bound a learner must reach to meet the beyond-the-thesis goals.
 YARDSTICK_GOALS = {"dcp_single_item": 0.97}
-
-
-def delta_se(ours, thesis, sd, episodes):
-    """``(ours - thesis) / (sd / sqrt(episodes))``, or ``None`` when a value is missing or ``sd`` is 0."""
-    vals = (ours, thesis, sd, episodes)
-    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in vals):
-        return None
-    if sd == 0 or episodes <= 0:
-        return None
-    return (ours - thesis) / (sd / math.sqrt(episodes))
 
 
 def verdict(d) -> str:
