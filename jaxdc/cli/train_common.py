@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
+import sys
 
 from jaxdc.agents.a2c import A2CConfig
 from jaxdc.cli.args import nonnegative_float, positive_float, positive_int, seed, seed_list, unit_interval
@@ -79,6 +80,31 @@ def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eva
     p.add_argument("--greedy-eval", action="store_true", help="evaluate the argmax policy instead of sampling")
     p.add_argument("--keep", type=positive_int("--keep"), default=3, help="checkpoints to keep")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def add_config_arguments(p: argparse.ArgumentParser, problem: str) -> None:
+    """``--config NAME|FILE`` (a named configuration or a run's ``config.json``, :mod:`jaxdc.training.configs`)
+    and ``--list-configs``."""
+    p.add_argument("--config", metavar="NAME|FILE",
+                   help="start from a named configuration (the recipe of a shipped network; --list-configs) or a "
+                        "run's config.json (retrain that run); flags given as well override it")
+    p.add_argument("--list-configs", action="store_true", help="print the named configurations and exit")
+
+
+def parse_with_config(p: argparse.ArgumentParser, argv, problem: str):
+    """The parsed arguments, ``--config`` expanded into flags placed before the given ones (so those override it);
+    ``None`` after ``--list-configs`` printed the names. A bad configuration is a usage error (exit 2)."""
+    from jaxdc.training import configs
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if "--list-configs" in argv:
+        print(configs.listing(problem))
+        return None
+    try:
+        argv = configs.expand(argv, problem)
+    except ValueError as e:
+        p.error(str(e))
+    return p.parse_args(argv)
 
 
 def a2c_settings(args, fields=tuple(A2C_FLAGS)) -> dict:

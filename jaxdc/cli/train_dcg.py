@@ -46,8 +46,8 @@ import sys
 from jaxdc.agents.a2c import A2CConfig
 from jaxdc import pretrained
 from jaxdc.cli.args import integer, nonnegative_float, positive_float, positive_int
-from jaxdc.cli.train_common import (EXIT_NAN, a2c_settings, add_a2c_arguments, check_outputs, fmt, run_control,
-                                    seed_tag, training_energy)
+from jaxdc.cli.train_common import (EXIT_NAN, a2c_settings, add_a2c_arguments, add_config_arguments,
+                                    check_outputs, fmt, parse_with_config, run_control, seed_tag, training_energy)
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.io import check_output_path, enable_compilation_cache
 from jaxdc.training.dcg import NETS, DCGRun, DCGSettings
@@ -86,6 +86,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="after training, write the final parameters with jaxdc.pretrained.save "
                         "(default jaxdc/assets/dcg/NET.msgpack)")
     add_a2c_arguments(p)
+    add_config_arguments(p, "dcg")
     return p
 
 
@@ -126,7 +127,9 @@ def main(argv=None) -> int:
     or combination is a usage error (exit 2) naming the flag.
     """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parse_with_config(parser, argv, "dcg")
+    if args is None:  # --list-configs
+        return 0
     try:
         settings, control = settle(args)
         check_outputs(control.out, control.tensorboard)

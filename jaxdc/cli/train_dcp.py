@@ -32,8 +32,9 @@ from jaxdc.agents.a2c import A2CConfig
 from jaxdc.agents.common import RunConfig
 from jaxdc.agents.nstep_q import EVAL_EPSILON, QConfig
 from jaxdc.cli.args import integer, positive_int, unit_interval
-from jaxdc.cli.train_common import (A2C_FLAGS, EXIT_NAN, a2c_settings, add_a2c_arguments, check_outputs, fmt,
-                                    learner_options_set, run_control, seed_tag, training_energy)
+from jaxdc.cli.train_common import (A2C_FLAGS, EXIT_NAN, a2c_settings, add_a2c_arguments, add_config_arguments,
+                                    check_outputs, fmt, learner_options_set, parse_with_config, run_control,
+                                    seed_tag, training_energy)
 from jaxdc.core import grid
 from jaxdc.io import enable_compilation_cache
 from jaxdc.training.dcp import NETS, DCPRun, DCPSettings
@@ -58,6 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
                    default=(8.0, 16.0), help="initial and maximal energy, finite (Tables 4.3-4.8: 8 16)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=1000, help="episode step cap")
     add_a2c_arguments(p)  # --steps --seed(s) --envs --devices ... learner options ... --no-progress
+    add_config_arguments(p, "dcp")
     p.add_argument("--target-every", type=positive_int("--target-every"), default=None,
                    help="eqn: environment steps between target-network copies (default 40000)")
     p.add_argument("--eval-epsilon", type=unit_interval("--eval-epsilon"), default=None,
@@ -109,7 +111,9 @@ def main(argv=None) -> int:
     usage error (exit 2) naming the flag.
     """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parse_with_config(parser, argv, "dcp")
+    if args is None:  # --list-configs
+        return 0
     try:
         settings, control = settle(args)
         check_outputs(control.out, control.tensorboard)

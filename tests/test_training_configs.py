@@ -1,0 +1,88 @@
+"""jaxdc.training.configs: named configurations and a run's own config.json as train.dcp / train.dcg flags."""
+
+import json
+
+import pytest
+
+from cli_checks import refused
+from jaxdc.cli import train_dcg, train_dcp
+from jaxdc.training import configs
+from jaxdc.training.dcg import make_env as dcg_env
+from jaxdc.training.dcg import run_metadata as dcg_metadata
+from jaxdc.training.dcp import run_metadata as dcp_metadata
+
+
+def _settle(module, argv, problem):
+    parser = module.build_parser()
+    return module.settle(parser.parse_args(configs.expand(argv, problem)))
+
+
+def test_every_preset_is_a_named_config_of_its_problem():
+    from jaxdc.training.ship import DCG_STRONG, EVERY
+
+    assert set(configs.CONFIGS) == set(EVERY)
+    assert set(configs.names("dcg")) == set(DCG_STRONG) and "enn_ppo" in configs.names("dcp")
+
+
+def test_a_named_config_settles_like_its_flags_and_given_flags_override():
+    flags = list(configs.CONFIGS["enn_ppo"].flags)
+    assert _settle(train_dcp, ["--config", "enn_ppo"], "dcp") == _settle(train_dcp, flags, "dcp")
+    settings, control = _settle(train_dcp, ["--config=enn_ppo", "--lr", "1e-3", "--seed", "4"], "dcp")
+    assert settings.config.lr == 1e-3 and control.seeds == (4,) and settings.config.clip_eps == 0.2
+    dcg, _ = _settle(train_dcg, ["--config", "omn_conn_strong_areas"], "dcg")
+    assert (dcg.net, dcg.reward_area, dcg.min_reward_area, dcg.config.total_steps) == ("omn_conn", 4, 1, 5_000_000)
+
+
+@pytest.mark.parametrize("argv", [
+    ["--net", "enn", "--risk", "low", "--energy", "6", "12", "--min-total-reward", "3", "--clip-eps", "0.2",
+     "--normalize-advantages", "--reset-slots", "4", "--max-grad-norm", "0.5", "--seeds", "1,2"],
+    ["--net", "eqn", "--grid-size", "5", "--total-reward", "7", "--target-every", "5000", "--lr", "3e-4"],
+])
+def test_a_dcp_run_config_retrains_the_same_run(argv, tmp_path):
+    settings, control = _settle(train_dcp, argv, "dcp")
+    (tmp_path / "config.json").write_text(json.dumps(dcp_metadata(settings, control.seeds)))
+    again = _settle(train_dcp, ["--config", str(tmp_path / "config.json")], "dcp")
+    assert again[0] == settings and again[1].seeds == control.seeds
+    assert _settle(train_dcp, ["--config", str(tmp_path)], "dcp")[0] == settings  # the run folder itself
+
+
+@pytest.mark.parametrize("argv", [
+    ["--net", "emnn", "--alpha", "0.0001", "--energy", "10", "--history", "4", "--strategies", "patrol,with_fog"],
+    ["--net", "omn_conn", "--omn-lr", "1e-3", "--reward-area", "3", "--min-reward-area", "2", "--seed", "9"],
+    ["--net", "vnn", "--envs", "32", "--t-max", "32", "--gae-lambda", "0.95"],
+])
+def test_a_dcg_run_config_retrains_the_same_run(argv, tmp_path):
+    settings, control = _settle(train_dcg, argv, "dcg")
+    env, _ = dcg_env(settings)
+    (tmp_path / "config.json").write_text(json.dumps(dcg_metadata(settings, env, control.seeds)))
+    again, again_control = _settle(train_dcg, ["--config", str(tmp_path / "config.json")], "dcg")
+    # the same run: its config.json (what shapes the trained parameters) is the one it was made from
+    assert dcg_metadata(again, dcg_env(again)[0], again_control.seeds) == dcg_metadata(settings, env, control.seeds)
+    assert again.config == settings.config and again.net == settings.net
+
+
+def test_list_configs_prints_names(capsys):
+    assert train_dcp.main(["--list-configs"]) == 0
+    out = capsys.readouterr().out
+    assert "enn_ppo_mix" in out and "vnn_strong" not in out
+    assert train_dcg.main(["--list-configs"]) == 0
+    assert "omn_conn_strong " in capsys.readouterr().out
+
+
+def test_bad_configs_are_refused(tmp_path, capsys):
+    refused(train_dcp.main, ["--config", "nope"], capsys, "--config 'nope'", "enn_ppo")
+    refused(train_dcp.main, ["--config", "omn_conn_strong"], capsys, "DCG configuration", "train.dcg")
+    refused(train_dcp.main, ["--config"], capsys, "--config needs")
+    refused(train_dcp.main, ["--config", "enn", "--config", "eqn"], capsys, "more than once")
+    bad = tmp_path / "config.json"
+    for text, needle in (("{", "not a readable JSON"), ('{"net": "enn", "steps": NaN}', "NaN"),
+                         ("[1]", "not a JSON object"), ('{"net": "vnn", "problem": "dcg", "algorithm": {}}', "DCG run"),
+                         ('{"net": "enn", "algorithm": {}, "colour": 1}', "colour"),
+                         ('{"net": "enn", "algorithm": {"unroll": 4}}', "unroll=4"),
+                         ('{"format": 2, "net": "enn", "algorithm": {"warp": 1}}', "warp"),
+                         ('{"net": "enn", "risk": true, "algorithm": {}}', "risk")):
+        bad.write_text(text)
+        refused(train_dcp.main, ["--config", str(bad)], capsys, needle)
+    # a hostile value goes through the flag's own check
+    bad.write_text(json.dumps({"net": "enn", "algorithm": {"lr": -1.0}}))
+    refused(train_dcp.main, ["--config", str(bad)], capsys, "--lr")
