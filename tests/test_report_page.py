@@ -141,3 +141,16 @@ def test_report_shows_best_row_against_the_thesis_learned_row(tmp_path):
     page = out.read_text()
     assert "| enn best: enn_long | 13.16 ± 7.17 | 14.80 ± 7.00 | +22.9 |" in page  # (14.80-13.16)/(7.17/100)
     assert "the best shipped jaxdc learner for this table, `enn_long` (16M steps)" in page
+
+
+def test_committed_page_is_rebuilt_from_the_committed_results():
+    """docs/results.md is exactly what `python -m eval.report` builds from results/ and the notes (all committed)."""
+    import os
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    docs = os.path.join(root, "docs")
+    page = build_page(os.path.join(root, "results"), os.path.join(docs, "results_notes.md"), docs,
+                      os.path.join(docs, "results_notes_dcg.md"))
+    with open(os.path.join(docs, "results.md")) as f:
+        committed = f.read()
+    assert page == committed, "docs/results.md is stale: run `python -m eval.report` and commit the page"

@@ -115,14 +115,16 @@ def _dcp_table_rows(p: dict) -> list[list[str]]:
     best = p.get("best")
     skip = {learned, best["row"] if best else None}
     navs = [n for n in p["ours"] if n not in skip and p["thesis"].get(n) and p["thesis"][n][0] is not None]
-    ds = [_row_delta(p, n)[2] for n in navs]
-    ds = [d for d in ds if d is not None]
-    if ds:
+    got = [(d, ours / thesis - 1 if thesis else None) for ours, thesis, d in (_row_delta(p, n) for n in navs)
+           if d is not None]
+    if got:
+        ds = [d for d, _ in got]
         within = sum(abs(d) <= REPRODUCED_SE for d in ds)
-        worst = max(ds, key=abs)
+        worst, rel = max(got, key=lambda g: abs(g[0]))
         label = "tour heuristics" if not learned else "navigators"
+        rel_text = "" if rel is None else f", {rel:+.1%}"
         rows.append([f"DCP Table {p['table']}", f"{len(ds)} {label}, reward",
-                     f"{within} of {len(ds)} within {REPRODUCED_SE:g} SE (largest {worst:+.1f} SE)", "—",
+                     f"{within} of {len(ds)} within {REPRODUCED_SE:g} SE (largest {worst:+.1f} SE{rel_text})", "—",
                      "reproduced" if within == len(ds) else f"{len(ds) - within} of {len(ds)} off", where])
     if learned:
         ours, thesis, d = _row_delta(p, learned)
