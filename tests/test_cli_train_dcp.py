@@ -208,3 +208,13 @@ def test_a_checkpoint_of_the_older_metadata_format_resumes(tmp_path):
     checkpoint.save(run.ckpt_dir, 1, run.trainer.init(run.init_key()), old)
     assert cli.main(TINY + ["--out", out, "--resume"]) == 0
     assert checkpoint.steps(run.ckpt_dir)[-1] == 128
+
+
+def test_config_json_of_a_run_retrains_it_exactly(finished_run, tmp_path):
+    """`--config RUN/config.json` (jaxdc.training.configs) trains the same run again: the same final parameters."""
+    out = str(tmp_path / "again")
+    assert cli.main(["--config", os.path.join(finished_run, "config.json"), "--eval-every", "2048",
+                     "--eval-episodes", "20", "--no-progress", "--out", out]) == 0
+    for x, y in zip(jax.tree_util.tree_leaves(_restore(finished_run).params),
+                    jax.tree_util.tree_leaves(_restore(out).params)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
