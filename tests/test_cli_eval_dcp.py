@@ -264,7 +264,11 @@ def test_cli_table_4_8_writes_results(tmp_path, capsys):
     assert js.exists() and md.exists()
     data = json.loads(js.read_text())
     assert {"thesis", "ours"} <= set(data)
-    assert set(data["ours"]) == {"safe_reward", "safe_recharge", "safe_both", "safe_neither"}
+    # the navigators, then (beyond the thesis, a single-item table) the exact optimum of value iteration
+    assert list(data["ours"]) == ["safe_reward", "safe_recharge", "safe_both", "safe_neither", "optimal"]
+    opt = data["ours"]["optimal"]
+    assert opt["reward"]["mean"] == pytest.approx(opt["expected_optimum"], abs=4 * 0.5 / 300 ** 0.5)
+    assert all(opt["expected_optimum"] >= v["reward"]["mean"] - 0.1 for v in data["ours"].values())
     assert data["thesis"]["safe_neither"][0] == 0.55
     assert all(v["episodes"] == 300 for v in data["ours"].values())
     assert "safe_neither" in md.read_text()

@@ -83,11 +83,11 @@ def test_dcg_rows_count_agreeing_claims_faithful_and_strong(tmp_path):
 
 def test_single_item_yardstick_uses_the_exact_optimum(tmp_path):
     _table(tmp_path, table="4.8", caption="one item", thesis={"enn": [0.83, 0.37, 0, 0, 0, 0]},
-           ours={"enn": _summary(0.30), "enn best": _summary(0.90)})
-    (tmp_path / "dcp" / "optimal_4.8.json").write_text(json.dumps({"expected_optimum": 0.92}))
+           ours={"enn": _summary(0.30), "enn best": _summary(0.90), "optimal": dict(_summary(0.921),
+                                                                                 expected_optimum=0.92)})
     card = scorecard(str(tmp_path))
-    assert "| exact optimum 0.920 (value iteration); goal 97% | 0.300 = 32.6% | 0.900 = 97.8%: `enn_long` | goal met |" \
-        in card
+    assert "| DCP Table 4.8 setting | exact optimum 0.920 (value iteration; not in the thesis); goal 97% | 0.300 = " \
+           "32.6% | 0.900 = 97.8%: `enn_long` | goal met |" in card
 
 
 def test_a_damaged_results_file_is_named(tmp_path):

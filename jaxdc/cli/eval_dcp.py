@@ -23,7 +23,8 @@ in 4.9, EQN in 4.10) and the incr.% columns: the learner's increment over each
 navigator as a percentage of the navigator's mean. Below the learned row, a
 row ``<net> best`` plays the best shipped jaxdc learner of that table (beyond
 the thesis: :mod:`jaxdc.dcp.best_learner`; named, with how its recipe differs,
-under the table; ``--no-best`` leaves it out). As in the thesis, the ENN of
+under the table), and a table of one item (4.8) gets the row ``optimal``, the
+exact optimum of value iteration; ``--no-best`` leaves both out. As in the thesis, the ENN of
 Table 4.3 also plays Tables 4.6 and 4.8; Table 4.7 has its own ENN (energy 16/32).
 Results of ``--table`` are written to ``--out`` (default ``results/dcp``) as
 ``table_<T>.json`` and ``table_<T>.md``, which land together (an interrupted
@@ -93,7 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"EQN's evaluation epsilon (section 4.5.5: {EQN_EPSILON}); only where EQN is evaluated")
     p.add_argument("--no-learned", action="store_true", help="--table: navigator rows only")
     p.add_argument("--no-best", action="store_true",
-                   help="--table: leave out the row of the best shipped jaxdc learner (beyond the thesis)")
+                   help="--table: leave out the rows beyond the thesis (the best shipped jaxdc learner; the exact "
+                        "optimum of a single-item table)")
     p.add_argument("--risk", choices=sorted(grid.RISK_PRESETS), default=None,
                    help="risk preset (Table 4.2; default high, or the learned network's)")
     p.add_argument("--risk-map", metavar="FILE", help="N x N risk map (.npy or JSON); overrides --risk")
@@ -201,6 +203,13 @@ def check_learned_flags(args, spec: TableSpec | None) -> None:
                          f"{net or 'the navigators'} (use --policy eqn or --table 4.10)")
 
 
+def _table_rows(spec: TableSpec, learned: Learned | None, no_best: bool) -> tuple[str, ...]:
+    """The rows of table ``spec``: its navigators and learned row, then (beyond the thesis, unless ``no_best``) the
+    exact optimum when the table drops a single item (section 4.5.4's value iteration)."""
+    rows = table_policies(spec, learned)
+    return rows + ("optimal",) if spec.total_reward == 1 and not no_best else rows
+
+
 def settle(args, spec: TableSpec | None, learned: Learned | None, argv=None) -> EvalDCPSettings:
     """The settings of the parsed arguments, given the table and the learned network already resolved.
 
@@ -219,7 +228,7 @@ def settle(args, spec: TableSpec | None, learned: Learned | None, argv=None) -> 
     options = EnvOptions(start=args.start, items_on_base=not args.no_items_on_base, energy_metric=args.energy_metric,
                          idle_terminates=not args.no_idle_stop, item_order=args.item_order)
     return EvalDCPSettings(
-        table=spec, policies=table_policies(spec, learned) if spec else (args.policy,), learned=learned,
+        table=spec, policies=_table_rows(spec, learned, args.no_best) if spec else (args.policy,), learned=learned,
         setting=setting, options=options, playing=playing, json=args.json, out=args.out or DEFAULT_OUT,
         command=PROG + " " + " ".join(argv if argv is not None else sys.argv[1:]),
         best=bool(spec and learned is not None and not args.no_best))
