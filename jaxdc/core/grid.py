@@ -88,7 +88,7 @@ def manhattan(a, b):
 def shortest_move(pos, target, grid_size: int, rule: str = "diagonal"):
     """The action that follows a shortest (fewest-moves) path from ``pos`` to ``target``.
 
-    Algorithm 8: "Select the a that minimizes max(|x_z - x_i*|, |y_z - y_i*|)".
+    Algorithm 8: "Select the a that minimizes ``max(|x_z - x_i*|, |y_z - y_i*|)``".
     Several actions usually do; ``rule`` picks one:
 
     * ``"diagonal"`` -- step ``sign(dx), sign(dy)``: diagonal while both axes

@@ -39,7 +39,7 @@ def available_bytes() -> int | None:
 
 
 def tree_bytes(tree) -> int:
-    """Bytes of the arrays (or ``ShapeDtypeStruct``s) of a pytree."""
+    """Bytes of the arrays (or ``ShapeDtypeStruct``\\ s) of a pytree."""
     return sum(int(np.prod(x.shape)) * np.dtype(x.dtype).itemsize for x in jax.tree_util.tree_leaves(tree))
 
 
