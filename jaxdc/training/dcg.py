@@ -31,6 +31,7 @@ from jaxdc.training.loop import (RunControl, RunSpec, TrainingRun, check_batch_f
                                  spread)
 from jaxdc.training.metadata import FORMAT
 
+#: The networks a DCG run trains (the names of :data:`jaxdc.nets.DCG_NETS`).
 NETS = tuple(DCG_NETS)
 #: Networks with the opponent-action head (``has_aux``).
 AUX_NETS = ("emnn", "omn_conn")

@@ -53,6 +53,7 @@ class Experiment:
     per_strategy_chart: bool = False
 
 
+#: The experiments of section 5.5 by name (Figs. 5.6-5.19).
 EXPERIMENTS = {
     "standard": Experiment("standard", ("5.6", "5.7"), "standard setting (5x5, 10 rewards, energy 15), 1M steps",
                            "", (None,), strong="1m", game_bound=True, per_strategy_chart=True),

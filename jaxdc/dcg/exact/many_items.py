@@ -20,7 +20,7 @@ opponent tabulated from the env's own strategy functions by
 :mod:`jaxdc.dcg.exact.one_item` (states merged when they behave alike). A collector's
 episode reward in a game can never exceed that game's optimum, whatever it
 observes, so :func:`sampled_bound` -- the mean optimum over games drawn by
-:meth:`DCG.reset_env` -- bounds the expected episode reward of every network
+:meth:`~jaxdc.dcg.env.DCG.reset_env` -- bounds the expected episode reward of every network
 (Figs. 5.6, 5.16) in ``env``; it is an estimate with a standard error, not an
 exact expectation. With one item it agrees with :func:`jaxdc.dcg.exact.one_item.solve`.
 

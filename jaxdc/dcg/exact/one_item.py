@@ -28,7 +28,7 @@ rules are time-homogeneous and the step cap only bounds the total.
 
 The transition is that of :meth:`jaxdc.dcg.env.DCG.step_env` (section 5.3):
 
-1. the opponent moves (:meth:`DCG.opponent_move`, the env's own strategy
+1. the opponent moves (:meth:`~jaxdc.dcg.env.DCG.opponent_move`, the env's own strategy
    functions, tabulated over all opponent states and collector cells); if it
    lands on the collector, the collector is disabled without moving;
 2. the collector moves (clipped per axis) and collects the item in its new cell;
@@ -42,7 +42,7 @@ refinement on the tabulated transitions, the observable being the position),
 so a chasing opponent is just its cell and a patrol its place on its cycle.
 
 :func:`full_information_bound` averages over the reset distribution of
-:meth:`DCG.reset_env` (item uniform over the reward area, opponent start and
+:meth:`~jaxdc.dcg.env.DCG.reset_env` (item uniform over the reward area, opponent start and
 patrol end as the env draws them, strategy uniform over ``env.strategies``);
 :func:`optimal_policy` replays the plans in the real env through
 :func:`jaxdc.core.rollout.run_episodes`.
@@ -128,7 +128,7 @@ def check_params(params):
 
 
 def reset_pairs(env) -> np.ndarray:
-    """``[C, C]`` probabilities of (start, patrol end) under :meth:`DCG.reset_env`."""
+    """``[C, C]`` probabilities of (start, patrol end) under :meth:`~jaxdc.dcg.env.DCG.reset_env`."""
     c = env.grid_size**2
     starts = np.arange(1, c) if env.opponent_start == "not_base" else np.arange(c)
     w = np.zeros((c, c))
@@ -173,7 +173,7 @@ def _opponent_table(env, params, strategy: int):
     """The env's opponent move over all states ``(pos, home, target, phase in {0,1})`` x collector cells.
 
     Returns ``next[F, C]`` (full state indices, ``F = 2 C^3``) computed by
-    :meth:`DCG.opponent_move` itself, so the solver and the env cannot drift
+    :meth:`~jaxdc.dcg.env.DCG.opponent_move` itself, so the solver and the env cannot drift
     apart. Raises if the strategy changes ``home``/``target``, uses another
     phase, or is random (two keys disagree).
     """
@@ -237,7 +237,7 @@ def opponent_machine(env, params, strategy: int, weight: np.ndarray):
 
 
 def captures(env, p, q2, p2):
-    """Rules (1) and (3) of :meth:`DCG.step_env` on arrays of cells, for the env's rule readings.
+    """Rules (1) and (3) of :meth:`~jaxdc.dcg.env.DCG.step_env` on arrays of cells, for the env's rule readings.
 
     ``p`` [F] the collector's cells, ``q2`` [F] the opponent's after it moved, ``p2`` [F, A] the collector's
     after each action. Returns ``free`` [F] (not caught before moving) and ``met`` [F, A] (caught after).
@@ -359,7 +359,7 @@ def solve(env, params) -> Solution:
 
     ``env`` is a :class:`jaxdc.dcg.env.DCG` (its rules: ``reward_when_caught``,
     ``opponent_start``, ``patrol_target``, ``strategies``), ``params`` one
-    scalar :class:`EnvParams` with a whole (or infinite) ``max_energy`` and a
+    scalar :class:`~jaxdc.dcg.env.EnvParams` with a whole (or infinite) ``max_energy`` and a
     deterministic ``chase_tie``; ``grid_size <= MAX_GRID_SIZE``. Raises
     ``ValueError`` otherwise, and ``MemoryError`` (before allocating) when the
     search's state table does not fit in memory.
