@@ -10,9 +10,13 @@ same strict build and checks that every module of jaxdc has its page.
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
+import inspect
 import os
+import re
 import sys
+import typing
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 sys.path.insert(0, ROOT)
@@ -46,7 +50,8 @@ autodoc_mock_imports = [] if importlib.util.find_spec("stable_baselines3") else 
 
 nitpicky = True
 # The build is offline (no intersphinx), so names of other libraries cannot resolve: they render as
-# text (the standard library's too, e.g. ``argparse.ArgumentParser`` in the CLI signatures). Private helpers (``_name``) are not in the reference by design.
+# text (the standard library's too, e.g. ``argparse.ArgumentParser`` in the CLI signatures). Private
+# helpers (``_name``) are not in the reference by design.
 _THIRD_PARTY = r"(argparse|pathlib|collections|typing|jax|jaxlib|jnp|numpy|np|flax|nn|optax|orbax|chex|gymnasium|stable_baselines3|matplotlib|PIL|torch|tqdm)"
 nitpick_ignore_regex = [
     (r"py:.*", _THIRD_PARTY + r"(\..*)?"),
@@ -80,9 +85,6 @@ def _canonical(dotted: str, module: str | None, cls: str | None):
     :mod:`jaxdc.viewer`, ``navigators.POLICIES``, ``jaxdc.nets.EQN``); the reference documents it
     where it is defined. Returns None when ``dotted`` does not resolve.
     """
-    import importlib
-    import inspect
-
     scopes = []
     if module:
         if cls:
@@ -115,9 +117,6 @@ def _canonical(dotted: str, module: str | None, cls: str | None):
 
 
 def _is_type_variable(name: str) -> bool:
-    import importlib
-    import typing
-
     module, _, attr = name.rpartition(".")
     try:
         return isinstance(getattr(importlib.import_module(module), attr), typing.TypeVar)
@@ -134,6 +133,8 @@ def _resolve_through_imports(app, env, node, contnode):
         return contnode  # a signature's TypeVar (``P``, ``S`` of core/env.py) has no page: plain text
     if name is None or name == target:
         return None
+    if re.fullmatch(_THIRD_PARTY + r"(\..*)?", name):
+        return contnode  # imported from another library (``Mesh`` from jax.sharding): text, as above
     domain = env.get_domain("py")
     return domain.resolve_xref(env, node["refdoc"], app.builder, node["reftype"], name, node, contnode)
 
