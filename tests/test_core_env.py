@@ -1,5 +1,6 @@
 """core.env: auto-reset in Environment.step and step_batch with few reset slots."""
 
+import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -50,3 +51,67 @@ def test_step_batch_deterministic_and_fallback_used_when_slots_short():
         np.testing.assert_array_equal(np.asarray(u), np.asarray(v))
     assert int(np.sum(np.asarray(x[3]))) > 1
     assert np.all(np.asarray(x[1].time)[np.asarray(x[3])] == 0)
+
+
+# -- the auto-reset under vmap (core.env.reset_where) -------------------------------------------------------
+def _unbatched_steps(env, keys, state, action, params):
+    """``env.step`` for each environment alone (a Python loop of unbatched steps), stacked."""
+    outs = [env.step(keys[i], jax.tree_util.tree_map(lambda x: x[i], state), action[i], params)
+            for i in range(keys.shape[0])]
+    return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *outs)
+
+
+def _games():
+    from jaxdc.dcg.env import DCG
+    from jaxdc.dcp.env import DCP
+
+    dcp = DCP(grid_size=4, total_reward=6)
+    dcg = DCG(grid_size=4, total_reward=4)
+    return [(dcp, dcp.make_params("high", (2.0, 3.0), max_steps=5)), (dcg, dcg.make_params(energy=3.0, max_steps=5))]
+
+
+@pytest.mark.parametrize("chunk", [1, 3, 128])
+@pytest.mark.parametrize("game", [0, 1], ids=["dcp", "dcg"])
+def test_batched_auto_reset_equals_the_unbatched_step(game, chunk, monkeypatch):
+    """vmap(env.step) resets only the finished environments, ``reset_chunk`` at a time (several passes when more
+    finish), and gives exactly what each environment's own step gives."""
+    env, params = _games()[game]
+    monkeypatch.setattr(env, "reset_chunk", chunk)
+    b = 12
+    key = jax.random.PRNGKey(7)
+    _, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, b), params)
+    step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
+    finished = 0
+    for t in range(6):
+        keys = jax.random.split(jax.random.fold_in(key, t), b)
+        action = jax.random.randint(jax.random.fold_in(key, 100 + t), (b,), 0, 9)
+        got = step(keys, state, action, params)
+        want = _unbatched_steps(env, keys, state, action, params)
+        chex.assert_trees_all_equal(got, want)
+        finished += int(jnp.sum(got[3] | got[4]))
+        state = got[1]
+    assert finished > 3  # several environments finished, some on the same step: the reset path ran
+
+
+def test_batched_auto_reset_with_per_environment_params_and_nested_vmap():
+    env, params = _games()[0]
+    b = 6
+    risks = jnp.stack([params.risk * f for f in jnp.linspace(0.2, 1.0, b)])
+    batch_params = jax.tree_util.tree_map(lambda x: jnp.stack([x] * b), params).replace(risk=risks)
+    key = jax.random.PRNGKey(3)
+    keys = jax.random.split(key, b)
+    _, state = jax.vmap(env.reset)(keys, batch_params)
+    action = jnp.arange(b) % 9
+    got = jax.jit(jax.vmap(env.step))(keys, state, action, batch_params)  # params batched: the reset-all path
+    want = [env.step(keys[i], jax.tree_util.tree_map(lambda x: x[i], state), action[i],
+                     jax.tree_util.tree_map(lambda x: x[i], batch_params)) for i in range(b)]
+    chex.assert_trees_all_equal(got, jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *want))
+    # vmap over seeds of vmap over environments (agents.parallel): the same as each inner batch alone
+    inner = jax.vmap(env.step, in_axes=(0, 0, 0, None))
+    keys2 = jnp.stack([keys, jax.random.split(jax.random.PRNGKey(4), b)])
+    state2 = jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), state)
+    action2 = jnp.stack([action, action[::-1]])
+    nested = jax.jit(jax.vmap(inner, in_axes=(0, 0, 0, None)))(keys2, state2, action2, params)
+    for s in range(2):
+        one = inner(keys2[s], jax.tree_util.tree_map(lambda x: x[s], state2), action2[s], params)
+        chex.assert_trees_all_equal(jax.tree_util.tree_map(lambda x: x[s], nested), one)

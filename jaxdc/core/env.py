@@ -24,6 +24,7 @@ from typing import Any, Generic, TypeVar
 
 import jax
 import jax.numpy as jnp
+from jax.custom_batching import custom_vmap
 
 from jaxdc.core import grid, spaces
 
@@ -90,6 +91,10 @@ class Environment(Generic[S, P]):
     def observe(self, state: S, params: P):
         raise NotImplementedError
 
+    #: Under ``vmap``, the auto-reset draws fresh initial states only for the environments that finished, this
+    #: many at a time (:func:`reset_where`); a performance setting, exact for any value >= 1.
+    reset_chunk: int = 128
+
     # -- public API ---------------------------------------------------------------------
     def reset(self, key, params: P | None = None):
         """Start an episode: ``(obs, state)``."""
@@ -111,10 +116,8 @@ class Environment(Generic[S, P]):
         obs_st, state_st, reward, terminated, truncated, info = self.step_env(
             key_step, state, action, params
         )
-        obs_re, state_re = self.reset_env(key_reset, params)
         done = jnp.logical_or(terminated, truncated)
-        state = tree_select(done, state_re, state_st)
-        obs = jnp.where(done, obs_re, obs_st)
+        obs, state = reset_where(self, done, key_reset, params, obs_st, state_st)
         info = dict(info)
         info["final_observation"] = obs_st
         return obs, state, reward, terminated, truncated, info
@@ -157,6 +160,54 @@ def step_batch(env: "Environment", key, state, action, params, reset_slots: int 
     info["final_observation"] = obs_st
     return (tree_select(done, obs_re, obs_st), tree_select(done, state_re, state_st), reward,
             terminated, truncated, info)
+
+
+def reset_where(env: "Environment", done, key, params, obs, state):
+    """``(obs, state)``, replaced by ``env.reset_env(key, params)`` where ``done``: the auto-reset of
+    :meth:`Environment.step`.
+
+    Unbatched, this computes the reset and selects. Under ``vmap`` (a ``custom_vmap`` rule) the fresh
+    states are computed only for the environments that finished, ``env.reset_chunk`` at a time in a
+    loop that runs ``ceil(finished / reset_chunk)`` times, each from its own key, and scattered into
+    the batch: every value is the one the unbatched rule gives, so trajectories are bit-identical,
+    while a step no longer pays a reset for every environment (about 75% of a random-policy step
+    on the DCP; docs/results.md, "Speed (DCP)"). With parameters that differ across the batch the
+    rule falls back to resetting every environment.
+    """
+
+    @custom_vmap
+    def reset(done, key, params, obs, state):
+        return tree_select(done, env.reset_env(key, params), (obs, state))
+
+    @reset.def_vmap
+    def reset_batched(axis_size, in_batched, done, key, params, obs, state):
+        done_b, key_b, params_b, obs_b, state_b = in_batched
+        b = axis_size
+
+        def batched(x, is_batched):
+            return x if is_batched else jnp.broadcast_to(x, (b,) + jnp.shape(x))
+
+        done, key = batched(done, done_b), batched(key, key_b)
+        current = jax.tree_util.tree_map(batched, (obs, state), (obs_b, state_b))
+        if any(jax.tree_util.tree_leaves(params_b)):  # per-environment params: reset every environment
+            axes = jax.tree_util.tree_map(lambda x: 0 if x else None, params_b)
+            out = jax.vmap(lambda d, k, p, c: tree_select(d, env.reset_env(k, p), c), in_axes=(0, 0, axes, 0))(
+                done, key, params, current)
+        else:
+            chunk = min(int(env.reset_chunk), b)
+            chunks = -(-b // chunk)
+            where = jnp.nonzero(done, size=chunks * chunk, fill_value=b)[0]  # finished first; b: no one
+
+            def fill(i, cur):
+                ids = jax.lax.dynamic_slice_in_dim(where, i * chunk, chunk)
+                fresh = jax.vmap(env.reset_env, in_axes=(0, None))(key[jnp.minimum(ids, b - 1)], params)
+                return jax.tree_util.tree_map(lambda a, f: a.at[ids].set(f, mode="drop"), cur, fresh)
+
+            finished = jnp.sum(done, dtype=jnp.int32)
+            out = jax.lax.fori_loop(0, (finished + chunk - 1) // chunk, fill, current)
+        return out, jax.tree_util.tree_map(lambda _: True, out)
+
+    return reset(done, key, params, obs, state)
 
 
 def tree_select(pred, on_true: Any, on_false: Any):
