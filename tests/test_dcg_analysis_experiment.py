@@ -52,6 +52,23 @@ def test_cache_keys_on_file_bytes_metadata_and_settings(tmp_path):
         cache.folder = "elsewhere"  # frozen
 
 
+def test_cache_files_record_provenance_that_load_leaves_out(tmp_path):
+    import json
+
+    import jaxdc
+
+    cache = EvaluationCache(str(tmp_path / "cache"))
+    settings = {"episodes": 10, "seed": 0}
+    path = cache.store(None, settings, {"total": 2.0})
+    with open(path) as f:
+        stored = json.load(f)
+    assert stored["total"] == 2.0 and stored["provenance"]["jaxdc_version"] == jaxdc.__version__
+    assert set(stored["provenance"]) >= {"jax_version", "git", "device", "command"}
+    assert cache.load(None, settings) == {"total": 2.0}  # a result read back is the one stored
+    with pytest.raises(ValueError, match="'provenance'"):
+        cache.store(None, settings, {"total": 2.0, "provenance": {}})
+
+
 def test_network_pool_reads_dcg_metadata_only(tmp_path):
     for name, problem in (("a", "dcg"), ("b", "dcp")):
         (tmp_path / f"{name}.msgpack").write_bytes(b"")

@@ -6,6 +6,12 @@ metadata file) and the settings, so a figure re-made with the same networks and
 settings reads them instead of playing again. A result of the settings alone
 (the sampled full-information bound of a game, which no parameter file
 changes) is stored as ``bound_<digest>.json``.
+
+Each stored file also records where its result came from
+(:func:`jaxdc.provenance.provenance`, the key ``"provenance"``): a sibling of
+the result's fields that :meth:`EvaluationCache.load` leaves out, so a result
+read back is the one stored, whichever machine and commit computed it (the
+figure that uses it records its own provenance).
 """
 
 from __future__ import annotations
@@ -16,6 +22,10 @@ import json
 import os
 
 from jaxdc.io import atomic_write_json
+from jaxdc.provenance import provenance
+
+#: The key of a stored file's provenance, beside the result's own fields (left out by :meth:`EvaluationCache.load`).
+PROVENANCE_KEY = "provenance"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -36,13 +46,18 @@ class EvaluationCache:
         return os.path.join(self.folder, ("bound_" if blob is None else "") + digest.hexdigest()[:24] + ".json")
 
     def load(self, blob: str | None, settings: dict) -> dict | None:
-        """The stored result of the same file with the same settings, ``None`` if there is none (or no reuse)."""
+        """The stored result of the same file with the same settings (without its provenance), ``None`` if there
+        is none (or no reuse)."""
         path = self.path(blob, settings)
         if not self.reuse or not os.path.isfile(path):
             return None
         with open(path) as f:
-            return json.load(f)
+            stored = json.load(f)
+        stored.pop(PROVENANCE_KEY, None)
+        return stored
 
     def store(self, blob: str | None, settings: dict, result: dict) -> str:
-        """Store ``result`` (atomically) and return its path."""
-        return atomic_write_json(self.path(blob, settings), result)
+        """Store ``result`` with its provenance (atomically) and return its path."""
+        if PROVENANCE_KEY in result:
+            raise ValueError(f"result: the key {PROVENANCE_KEY!r} is the stored file's own; got a result holding it")
+        return atomic_write_json(self.path(blob, settings), {**result, PROVENANCE_KEY: provenance()})
