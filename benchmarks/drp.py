@@ -47,6 +47,11 @@
 
     python -m benchmarks.drp --fig-against 9dd8b83 --cc-graphs 4 --cc-nodes 100 [--json]
 
+Every printed result (the last JSON on stdout; the progress lines on stderr
+are not results) records where it came from under ``"provenance"``
+(:func:`jaxdc.provenance.provenance`): an object gains the key, a list of rows
+is printed as ``{"rows": [...], "provenance": {...}}``.
+
 The reference uses the same formulas (Eqs. 3.2-3.8), NumPy-vectorised over
 candidates within a step, Python loops over steps, NC re-evaluating only pairs
 with the new cluster, and the same PGC (``jaxdc.drp.pgc_clustering.pgc`` is
@@ -458,6 +463,17 @@ def _names(name, allowed):
     return parse
 
 
+def with_provenance(result, argv=None):
+    """``result`` (an object or a list of rows) with the provenance of this run beside it; its command line is
+    ``python -m benchmarks.drp ARGV`` (``argv=None``: ``sys.argv``)."""
+    from jaxdc.provenance import provenance
+
+    record = provenance(None if argv is None else ["python", "-m", "benchmarks.drp", *argv])
+    if isinstance(result, dict):
+        return {**result, "provenance": record}
+    return {"rows": result, "provenance": record}
+
+
 def main(argv=None):
     """The benchmark's exit status; every flag is checked (ranges, names) before any work."""
     from jaxdc.cli.runner import run
@@ -498,7 +514,7 @@ def _main(argv=None):
                    help="only: the figure-3.1 experiment with the jaxdc of REV vs the working tree's (--cc-graphs, "
                         "--cc-nodes, --cc-alphas)")
     args = p.parse_args(argv)
-    dump = lambda obj: json_text(obj, indent=None if args.json else 1)  # noqa: E731  strict JSON
+    dump = lambda obj: json_text(with_provenance(obj, argv), indent=None if args.json else 1)  # noqa: E731  strict JSON
     if args.build_against:
         rows = build_against(args.build_against, args.build_sizes)
         print(dump(rows))
@@ -512,7 +528,7 @@ def _main(argv=None):
         print(dump(rows))
         return
     if args.gi_resume_stats:
-        print(json_text(gi_resume_stats(args.nodes, args.alpha), indent=None))
+        print(json_text(with_provenance(gi_resume_stats(args.nodes, args.alpha), argv), indent=None))
         return
     if args.nc_cache:
         rows = nc_cache_compare(args.cc_graphs, args.cc_nodes, args.cc_alphas,
