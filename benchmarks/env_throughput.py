@@ -69,7 +69,8 @@ from jaxdc.io import check_output_folder, json_text  # noqa: E402
 
 DEFAULT_BATCH_SIZES = (1, 64, 1024, 4096, 16384)
 TABLE43_NAVIGATORS = ("safe_reward", "safe_recharge", "safe_both", "safe_neither")
-RESULTS_DIR = ROOT / "results" / "benchmarks"
+#: The default output folder, under the current directory (like every other command).
+RESULTS_DIR = Path("results") / "benchmarks"
 #: Targets: env-steps/s of jax_random at B=4096, its share of jax_handbatched's, Table 4.3's run time.
 TARGET_RANDOM_4096 = 5e6  # steps/s
 TARGET_SHARE_HANDBATCHED = 0.65
@@ -234,6 +235,7 @@ def steps_for(batch: int, steps: int | None, quick: bool) -> int:
 
 def run(args) -> dict:
     repeats = args.repeats if args.repeats is not None else (1 if args.quick else 3)
+    load_start = os.getloadavg()[0]
     rows = []
     for policy in ("random", "safe_reward"):
         # --quick: Safe-Reward only at the smallest batch size (each size is one more compile)
@@ -278,7 +280,8 @@ def run(args) -> dict:
                    "max_steps": 200, "repeats": repeats, "quick": bool(args.quick)},
         "machine": {"jax": jax.__version__, "backend": jax.default_backend(),
                     "devices": [str(d) for d in jax.devices()], "cpu_count": os.cpu_count(),
-                    "python": platform.python_version(), "platform": platform.platform()},
+                    "python": platform.python_version(), "platform": platform.platform(),
+                    "loadavg_1min_start": load_start, "loadavg_1min_end": os.getloadavg()[0]},
         "rows": rows,
         "numpy_safe_reward": "skipped: needs a NumPy port of the LPG planner (Algorithm 7)",
     }
@@ -318,7 +321,8 @@ def targets(result: dict) -> dict:
 
 
 def markdown(result: dict) -> str:
-    lines = ["| implementation | batch | T | env-steps/s | vs NumPy | compile (s) |",
+    lines = [f"`{result['command']}`", ""] if result.get("command") else []
+    lines += ["| implementation | batch | T | env-steps/s | vs NumPy | compile (s) |",
              "|---|---:|---:|---:|---:|---:|"]
     for r in result["rows"]:
         lines.append(f"| {r['impl']} | {r['batch']} | {r['steps']} | {r['steps_per_s']:,.0f} | "
@@ -338,7 +342,9 @@ def markdown(result: dict) -> str:
             lines.append(f"- {name}: {t['value']:,.3f} (target {t['target']:,}) -> "
                          f"{'met' if t['met'] else 'NOT met'}")
     m = result["machine"]
-    lines += ["", f"jax {m['jax']} on {m['backend']} ({m['cpu_count']} CPUs), {m['platform']}"]
+    load = (f"; load average {m['loadavg_1min_start']:.1f} at the start, {m['loadavg_1min_end']:.1f} at the end"
+            if "loadavg_1min_start" in m else "")
+    lines += ["", f"jax {m['jax']} on {m['backend']} ({m['cpu_count']} CPUs), {m['platform']}{load}"]
     return "\n".join(lines)
 
 
@@ -380,6 +386,7 @@ def main(argv=None) -> dict:
         return row
     check_memory(args.batch_sizes)
     result = run(args)
+    result["command"] = " ".join(["python benchmarks/env_throughput.py", *(sys.argv[1:] if argv is None else argv)])
     md = markdown(result)
     publish(args.out_dir, "env_throughput", result, md, args.json)
     return result

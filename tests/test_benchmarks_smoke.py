@@ -121,7 +121,9 @@ def test_benchmark_main_quick(tmp_path, capsys):
         assert set(r) >= {"impl", "batch", "steps", "seconds", "compile_s", "steps_per_s", "vs_numpy"}
     assert json.loads((tmp_path / "env_throughput.json").read_text())["rows"] == result["rows"]
     md = (tmp_path / "env_throughput.md").read_text()
-    assert md.startswith("| implementation | batch | T | env-steps/s |") and md.count("| jax_random |") == 2
+    assert md.startswith("`python benchmarks/env_throughput.py --json --batch-sizes 1 4 --steps 5 --quick")
+    assert "\n| implementation | batch | T | env-steps/s |" in md and md.count("| jax_random |") == 2
+    assert "load average" in md and result["machine"]["loadavg_1min_start"] >= 0
     assert not list(tmp_path.glob(".tmp-*"))
 
     # The Table 4.3 and target sections, on a synthetic result (compiling them costs ~20 s).

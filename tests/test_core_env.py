@@ -70,7 +70,7 @@ def _games():
     return [(dcp, dcp.make_params("high", (2.0, 3.0), max_steps=5)), (dcg, dcg.make_params(energy=3.0, max_steps=5))]
 
 
-@pytest.mark.parametrize("chunk", [1, 3, 128])
+@pytest.mark.parametrize("chunk", [1, 3, None])
 @pytest.mark.parametrize("game", [0, 1], ids=["dcp", "dcg"])
 def test_batched_auto_reset_equals_the_unbatched_step(game, chunk, monkeypatch):
     """vmap(env.step) resets only the finished environments, ``reset_chunk`` at a time (several passes when more

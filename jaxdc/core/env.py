@@ -92,8 +92,9 @@ class Environment(Generic[S, P]):
         raise NotImplementedError
 
     #: Under ``vmap``, the auto-reset draws fresh initial states only for the environments that finished, this
-    #: many at a time (:func:`reset_where`); a performance setting, exact for any value >= 1.
-    reset_chunk: int = 128
+    #: many at a time (:func:`reset_where`); ``None``: :func:`reset_chunk_size` of the batch. A performance
+    #: setting, exact for any value >= 1 (set it before the first jitted call: environments are static arguments).
+    reset_chunk: int | None = None
 
     # -- public API ---------------------------------------------------------------------
     def reset(self, key, params: P | None = None):
@@ -162,17 +163,28 @@ def step_batch(env: "Environment", key, state, action, params, reset_slots: int 
             terminated, truncated, info)
 
 
+#: The bounds of the automatic reset chunk: a thirty-second of the batch, between these.
+RESET_CHUNK_MIN, RESET_CHUNK_MAX = 8, 128
+
+
+def reset_chunk_size(batch: int) -> int:
+    """How many finished environments one pass of the batched auto-reset resets: ``batch / 32`` within
+    ``[RESET_CHUNK_MIN, RESET_CHUNK_MAX]`` (a short loop of small resets; measured on CPU, docs/results.md)."""
+    return max(RESET_CHUNK_MIN, min(RESET_CHUNK_MAX, batch // 32))
+
+
 def reset_where(env: "Environment", done, key, params, obs, state):
     """``(obs, state)``, replaced by ``env.reset_env(key, params)`` where ``done``: the auto-reset of
     :meth:`Environment.step`.
 
     Unbatched, this computes the reset and selects. Under ``vmap`` (a ``custom_vmap`` rule) the fresh
-    states are computed only for the environments that finished, ``env.reset_chunk`` at a time in a
-    loop that runs ``ceil(finished / reset_chunk)`` times, each from its own key, and scattered into
-    the batch: every value is the one the unbatched rule gives, so trajectories are bit-identical,
-    while a step no longer pays a reset for every environment (about 75% of a random-policy step
-    on the DCP; docs/results.md, "Speed (DCP)"). With parameters that differ across the batch the
-    rule falls back to resetting every environment.
+    states are computed only for the environments that finished, ``env.reset_chunk`` (or
+    :func:`reset_chunk_size`) at a time in a loop that runs ``ceil(finished / chunk)`` times, each
+    from its own key, and scattered into the batch: every value is the one the unbatched rule
+    gives, so trajectories are bit-identical, while a step no longer pays a reset for every
+    environment (about 75% of a random-policy step on the DCP; docs/results.md, "Speed (DCP)").
+    With parameters that differ across the batch the rule falls back to resetting every
+    environment.
     """
 
     @custom_vmap
@@ -194,7 +206,7 @@ def reset_where(env: "Environment", done, key, params, obs, state):
             out = jax.vmap(lambda d, k, p, c: tree_select(d, env.reset_env(k, p), c), in_axes=(0, 0, axes, 0))(
                 done, key, params, current)
         else:
-            chunk = min(int(env.reset_chunk), b)
+            chunk = min(int(env.reset_chunk or reset_chunk_size(b)), b)
             chunks = -(-b // chunk)
             where = jnp.nonzero(done, size=chunks * chunk, fill_value=b)[0]  # finished first; b: no one
 
