@@ -19,4 +19,6 @@ def test_readme_python_blocks_run():
 def test_readme_has_the_two_setup_commands():
     text = README.read_text()
     assert "pip install -e . && python -m eval.dcp" in text
-    assert 'pip install -e ".[dev,bench]" && python -m pytest' in text
+    assert 'pip install -e ".[dev,bench,docs]" && python -m pytest' in text
+    ci = (README.parent / ".ci" / "run").read_text()
+    assert 'pip install -q -e ".[dev,bench,docs]"' in ci and "\npython -m pytest\n" in ci  # the same command

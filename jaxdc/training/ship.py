@@ -70,6 +70,8 @@ BEYOND.update({  # the setting of the faithful ENN of the same tables, then the 
 DCG_STRONG_RECIPE = ["--envs", "32", "--t-max", "32", "--lr", "1e-3", "--clip-eps", "0.2", "--epochs", "4",
                      "--minibatches", "4", "--gae-lambda", "0.95", "--normalize-advantages", "--reset-slots", "4",
                      "--eval-every", "1000000", "--eval-episodes", "2000"]
+#: The strong DCG collectors: name -> (the figures each fills, train.dcg arguments): ``NET_strong`` (3M steps) and
+#: ``NET_strong_1m`` (1M) for each network, then ``omn_conn_strong_areas``.
 DCG_STRONG = {f"{net}_strong{tag}": (figures, ["--net", net, "--steps", steps, *DCG_STRONG_RECIPE])
               for net in ("vnn", "imnn", "emnn", "omn_conn")
               for tag, steps, figures in (("", "3000000", "5.11, 5.16 (beyond the thesis: the strong recipe, 3M)"),
