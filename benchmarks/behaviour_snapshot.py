@@ -15,7 +15,10 @@ output folders (never ``results/`` or ``runs/``) and ``JAXDC_NO_CACHE=1``
 executables, only faster). ``DIR/<case>.json`` holds its exit status, its
 stdout (parsed when it is JSON) and the files it wrote, with timing and
 version fields dropped (:data:`DROPPED_KEYS`, the time columns of a
-``metrics.csv``) and the temporary folder written as ``<TMP>``. Trained
+``metrics.csv``) and the temporary folder written as ``<TMP>``; beside them,
+under ``"provenance"``, the code and machine that recorded it
+(:func:`jaxdc.provenance.provenance`: its git commit tells the snapshots
+apart), which ``compare`` ignores. Trained
 parameters are stored as a SHA-256 of every leaf's path, dtype, shape and
 bytes. ``compare`` prints each case as identical or not (with the first
 differences) and exits 1 when any differs or is missing.
@@ -201,20 +204,31 @@ def run_case(name: str, commands, xla_cache: bool) -> dict:
         return {"case": name, "steps": steps, "files": files, "wall": round(time.perf_counter() - t0, 1)}
 
 
+def recording_provenance(argv: list[str]) -> dict:
+    """The provenance of the code that records (:func:`jaxdc.provenance.provenance`, command ``argv``), taken in a
+    child process like the cases, so this one never holds the device."""
+    code = "import json, sys; from jaxdc.provenance import provenance; print(json.dumps(provenance(sys.argv[1:])))"
+    p = subprocess.run([PY, "-c", code, *argv], cwd=ROOT, capture_output=True, text=True, check=True)
+    return json.loads(p.stdout)
+
+
 def record(out: str, only=None, xla_cache: bool = False) -> int:
+    from jaxdc.io import atomic_write_json
+
     os.makedirs(out, exist_ok=True)
     todo = cases()
     names = list(todo) if not only else only
     unknown = [n for n in names if n not in todo]
     if unknown:
         raise SystemExit(f"unknown cases {unknown}; known: {list(todo)}")
+    command = ["python", "-m", "benchmarks.behaviour_snapshot", "record", out]
+    command += (["--only", ",".join(only)] if only else []) + (["--xla-cache"] if xla_cache else [])
+    origin = recording_provenance(command)
     bad = 0
     for name in names:
         result = run_case(name, todo[name], xla_cache)
         wall = result.pop("wall")
-        with open(os.path.join(out, f"{name}.json"), "w") as f:
-            json.dump(result, f, indent=1, sort_keys=True)
-            f.write("\n")
+        atomic_write_json(os.path.join(out, f"{name}.json"), {**result, "provenance": origin})
         rcs = [s["rc"] for s in result["steps"]]
         bad += any(rcs)
         print(f"{name:28s} rc {rcs}  {wall:6.1f} s", flush=True)
@@ -239,6 +253,14 @@ def _diff(a, b, where="", out=None, limit=8):
     return out
 
 
+def _recorded(path: str) -> dict:
+    """A recorded case without its provenance (which differs between any two recordings)."""
+    with open(path) as f:
+        case = json.load(f)
+    case.pop("provenance", None)
+    return case
+
+
 def compare(before: str, after: str) -> int:
     names = sorted({f[:-5] for d in (before, after) for f in os.listdir(d) if f.endswith(".json")})
     differ = 0
@@ -248,7 +270,7 @@ def compare(before: str, after: str) -> int:
             print(f"{name:28s} MISSING in {'before' if not os.path.exists(paths[0]) else 'after'}")
             differ += 1
             continue
-        a, b = (json.load(open(p)) for p in paths)
+        a, b = (_recorded(p) for p in paths)
         if a == b:
             print(f"{name:28s} identical ({len(a['steps'])} commands, {len(a['files'])} files)")
         else:
