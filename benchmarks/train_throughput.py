@@ -69,6 +69,7 @@ from jaxdc.dcp import navigators  # noqa: E402
 from jaxdc.cli.args import positive_float, positive_int  # noqa: E402
 from jaxdc.io import atomic_write_json, check_output_folder, json_text  # noqa: E402
 from jaxdc.nets import make_net  # noqa: E402
+from jaxdc.provenance import provenance  # noqa: E402
 
 DEFAULT_ENVS = (16, 64, 256)
 NETS = ("enn", "cnn")
@@ -293,8 +294,9 @@ def sb3_available() -> bool:
 
 # -- the run ---------------------------------------------------------------------------------
 def _save_partial(out_dir: Path, rows: list[dict]) -> None:
-    """The rows so far, in ``train_throughput.partial.json`` (a long run cut short keeps them)."""
-    atomic_write_json(out_dir / "train_throughput.partial.json", {"rows": rows})
+    """The rows so far, in ``train_throughput.partial.json`` (a long run cut short keeps them), with their
+    provenance like the finished table's (:func:`benchmarks.publish.publish`)."""
+    atomic_write_json(out_dir / "train_throughput.partial.json", {"rows": rows, "provenance": provenance()})
 
 
 def run(args) -> dict:

@@ -160,6 +160,16 @@ def test_train_throughput_quick(tmp_path, capsys):
     assert not list(tmp_path.glob(".tmp-*")) and not (tmp_path / "train_throughput.partial.json").exists()
 
 
+def test_train_throughput_partial_rows_record_provenance(tmp_path):
+    import jaxdc
+    from benchmarks import train_throughput as tt
+
+    tt._save_partial(tmp_path, [{"impl": "jaxdc cnn", "steps_per_s": 1.0}])
+    saved = json.loads((tmp_path / "train_throughput.partial.json").read_text())
+    assert saved["rows"] == [{"impl": "jaxdc cnn", "steps_per_s": 1.0}]
+    assert saved["provenance"]["jaxdc_version"] == jaxdc.__version__ and "command" in saved["provenance"]
+
+
 def test_train_throughput_ppo_row(tmp_path, capsys):
     """The PPO-style row: the options of docs/learning.md (4 x 4 Adam steps per update), only when asked for in --quick."""
     from benchmarks import train_throughput as tt
