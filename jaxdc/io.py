@@ -67,6 +67,32 @@ def json_text(obj, indent: int | None = 2) -> str:
                          f"an undefined value must be written as null") from None
 
 
+def _refuse_constant(path: str):
+    def refuse(constant):
+        raise ValueError(f"{path}: holds {constant}, which strict JSON does not have")
+    return refuse
+
+
+def read_json(path: str, hint: str = "") -> object:
+    """The strict JSON in the file ``path`` (NaN and Infinity refused): every reader of a JSON file uses this one.
+
+    An unreadable file, one that is not JSON, or one holding NaN/Infinity gives a ``ValueError`` that names
+    ``path``; ``hint`` (e.g. ``"rerun the command that wrote it"``) is appended to the message.
+    """
+    tail = f"; {hint}" if hint else ""
+    try:
+        with open(path) as f:
+            return json.load(f, parse_constant=_refuse_constant(path))
+    except (OSError, UnicodeDecodeError) as e:
+        raise ValueError(f"{path}: cannot read it: {e}") from None
+    except RecursionError:
+        raise ValueError(f"{path}: nested too deeply to be read{tail}") from None
+    except ValueError as e:
+        if str(e).startswith(path):
+            raise
+        raise ValueError(f"{path}: not valid JSON ({e}){tail}") from None
+
+
 def finite_or_none(x):
     """``x`` as a float, or ``None`` when it is NaN or infinite (for a statistic that is undefined)."""
     if x is None:

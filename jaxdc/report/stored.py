@@ -4,33 +4,19 @@ from __future__ import annotations
 
 import contextlib
 import glob
-import json
 import os
 import re
+
+from jaxdc import io
 
 
 #: A DCP table's results file: ``table_<T>.json`` with ``T`` a table number (``4.3``); other names are ignored.
 TABLE_FILE = re.compile(r"table_(\d+(?:\.\d+)*)\.json")
 
 
-def _refuse_constant(path: str):
-    def refuse(constant):
-        raise ValueError(f"{path}: holds {constant}, which strict JSON does not have")
-    return refuse
-
-
 def read_json(path: str) -> dict:
     """One stored results file, strict JSON; ``ValueError`` naming the file if it is unreadable."""
-    try:
-        with open(path) as f:
-            return json.load(f, parse_constant=_refuse_constant(path))
-    except (OSError, UnicodeDecodeError) as e:
-        raise ValueError(f"{path}: cannot read it: {e}") from None
-    except ValueError as e:
-        if str(e).startswith(path):
-            raise
-        raise ValueError(f"{path}: not valid JSON ({e}); rerun the command "
-                         "that wrote it") from None
+    return io.read_json(path, "rerun the command that wrote it")
 
 
 def table_files(results_dir: str) -> list[str]:
