@@ -35,7 +35,7 @@ from jaxdc.cli.args import integer, positive_int, unit_interval
 from jaxdc.cli.train_common import (A2C_FLAGS, EXIT_NAN, a2c_settings, add_a2c_arguments, add_config_arguments,
                                     check_outputs, fmt, learner_options_set, parse_with_config, run_control,
                                     seed_tag, training_energy)
-from jaxdc.core import grid
+from jaxdc.core import generators, grid
 from jaxdc.io import enable_compilation_cache
 from jaxdc.training.dcp import NETS, DCPRun, DCPSettings
 
@@ -58,6 +58,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--energy", nargs=2, type=training_energy("--energy"), metavar=("INIT", "MAX"),
                    default=(8.0, 16.0), help="initial and maximal energy, finite (Tables 4.3-4.8: 8 16)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=1000, help="episode step cap")
+    g = p.add_argument_group("per-episode instances (beyond the thesis; docs/generalisation.md)")
+    g.add_argument("--observation", choices=("thesis", "general"), default="thesis",
+                   help="thesis: items and energy planes; general: also the risk map and the budget")
+    g.add_argument("--risk-maps", choices=tuple(generators.GENERATORS), default=None,
+                   help="each training episode draws its risk map from --map-seeds maps of this generator")
+    g.add_argument("--map-seeds", nargs=2, type=integer("--map-seeds", low=0), metavar=("START", "COUNT"),
+                   default=(0, 1024), help="the seeds of the training maps (held-out seeds are refused)")
+    g.add_argument("--energy-range", nargs=2, type=training_energy("--energy-range"), metavar=("LOW", "HIGH"),
+                   default=None, help="each training episode's maximum energy: a whole number in [LOW, HIGH]")
+    g.add_argument("--init-fraction", type=unit_interval("--init-fraction"), default=0.5,
+                   help="with --energy-range: initial energy = round(F * maximum) (default 0.5, as 8/16)")
     add_a2c_arguments(p)  # --steps --seed(s) --envs --devices ... learner options ... --no-progress
     add_config_arguments(p, "dcp")
     p.add_argument("--target-every", type=positive_int("--target-every"), default=None,
@@ -94,7 +105,10 @@ def settle(args):
                            total_reward=args.total_reward, min_total_reward=args.min_total_reward,
                            energy=tuple(args.energy), max_steps=args.max_steps, eval_episodes=args.eval_episodes,
                            greedy_eval=args.greedy_eval,
-                           eval_epsilon=EVAL_EPSILON if args.eval_epsilon is None else args.eval_epsilon)
+                           eval_epsilon=EVAL_EPSILON if args.eval_epsilon is None else args.eval_epsilon,
+                           observation=args.observation, risk_maps=args.risk_maps, map_seeds=tuple(args.map_seeds),
+                           energy_range=None if args.energy_range is None else tuple(args.energy_range),
+                           init_fraction=args.init_fraction)
     out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{seed_tag(args)}")
     return settings, run_control(args, out)
 

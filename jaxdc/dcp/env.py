@@ -23,6 +23,7 @@ stacked channels-last as ``[N, N, 2]``: ``M^item`` (item rewards) and
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -43,6 +44,12 @@ RUNNING, RISK, ENERGY, CLEARED, IDLE, TRUNCATED = range(len(OUTCOMES))
 STARTS = ("random_free", "random", "base")
 #: The order of items that breaks ties in the planners ("first item" of Algorithms 7-8).
 ITEM_ORDERS = ("drop", "row_major")
+#: What the agent observes: the thesis' two planes, or four planes a network can generalise from (beyond the
+#: thesis: the risk map and the budget, docs/generalisation.md).
+OBSERVATIONS = ("thesis", "general")
+#: The fixed scale of the energy planes of the ``"general"`` observation: energies are divided by it, so any
+#: budget up to 64 shows in [0, 1] and larger ones stay finite (the observation space grows with the budget).
+ENERGY_SCALE = 64.0
 
 
 @struct.dataclass
@@ -56,6 +63,12 @@ class EnvParams:
     init_energy: jax.Array  # float32; inf = no energy constraint (Table 4.1)
     max_energy: jax.Array  # float32; inf allowed
     max_steps: jax.Array  # int32 step cap (truncation)
+    # Per-episode instances (beyond the thesis; :mod:`jaxdc.dcp.instances` builds them): ``None`` in the
+    # thesis' setting, where ``risk`` and the energies above hold for every episode.
+    maps: jax.Array | None = None  # [M, N, N] float32: the risk maps an episode draws from
+    tables: Any = None  # PathTable of [M, N*N, N*N] leaves: each map's safest paths
+    energy_range: jax.Array | None = None  # [2] float32: the maximum energy is an int drawn from [low, high]
+    init_fraction: jax.Array | None = None  # float32: initial energy = round(init_fraction * maximum), >= 1
 
 
 @struct.dataclass
@@ -68,6 +81,8 @@ class EnvState:
     ep_reward: jax.Array  # float32 reward collected so far
     ep_energy: jax.Array  # int32 energy consumed so far (see ENERGY_METRICS)
     rank: jax.Array  # [N, N] int32 position of each cell in the item list (ties; see ITEM_ORDERS)
+    map_id: jax.Array | None = None  # int32 index into params.maps (per-episode instances only)
+    max_energy: jax.Array | None = None  # float32 this episode's maximum energy (per-episode instances only)
 
 
 class DCP(Environment[EnvState, EnvParams]):
@@ -100,6 +115,18 @@ class DCP(Environment[EnvState, EnvParams]):
         episode drops a number of units drawn uniformly from
         ``m .. total_reward`` (a training distribution beyond the thesis, for
         one network that plays Tables 4.3, 4.6 and 4.8; docs/learning.md).
+      observation: ``"thesis"`` (default): the two planes of section 4.4.3.
+        ``"general"`` (beyond the thesis): four planes ``[N, N, 4]``: items,
+        the energy at the agent's cell, the episode's risk map and its
+        maximum energy on every cell, both energies divided by
+        :data:`ENERGY_SCALE`; a network that sees them can play maps and
+        budgets it was not trained on (docs/generalisation.md).
+
+    With per-episode instances (``params.maps``, built by
+    :func:`jaxdc.dcp.instances.instance_params`) each reset draws the
+    episode's risk map from ``params.maps`` and its maximum energy from
+    ``params.energy_range``; the state keeps them (``map_id``,
+    ``max_energy``).
     """
 
     def __init__(
@@ -112,6 +139,7 @@ class DCP(Environment[EnvState, EnvParams]):
         idle_terminates: bool = False,
         item_order: str = "drop",
         min_total_reward: int | None = None,
+        observation: str = "thesis",
     ):
         self.grid_size = grid.check_grid_size(grid_size, max_cells=MAX_RANGE)  # the drop's uniform_index range
         check_int("total_reward", total_reward, 1, MAX_TOTAL_REWARD)
@@ -126,6 +154,9 @@ class DCP(Environment[EnvState, EnvParams]):
             raise ValueError(f"energy_metric must be one of {ENERGY_METRICS}, got {energy_metric!r}")
         if item_order not in ITEM_ORDERS:
             raise ValueError(f"item_order must be one of {ITEM_ORDERS}, got {item_order!r}")
+        if observation not in OBSERVATIONS:
+            raise ValueError(f"observation must be one of {OBSERVATIONS}, got {observation!r}")
+        self.observation = observation
         self.total_reward = int(total_reward)
         self.start = start
         self.items_on_base = bool(items_on_base)
@@ -136,14 +167,16 @@ class DCP(Environment[EnvState, EnvParams]):
 
     def _config(self) -> tuple:
         return (self.grid_size, self.total_reward, self.start, self.items_on_base,
-                self.energy_metric, self.idle_terminates, self.item_order, self.min_total_reward)
+                self.energy_metric, self.idle_terminates, self.item_order, self.min_total_reward) + (
+                    () if self.observation == "thesis" else (self.observation,))
 
     def __repr__(self) -> str:
         return (
             f"DCP(grid_size={self.grid_size}, total_reward={self.total_reward}, start={self.start!r}, "
             f"items_on_base={self.items_on_base}, energy_metric={self.energy_metric!r}, "
             f"idle_terminates={self.idle_terminates}, item_order={self.item_order!r}"
-            + ("" if self.min_total_reward is None else f", min_total_reward={self.min_total_reward}") + ")"
+            + ("" if self.min_total_reward is None else f", min_total_reward={self.min_total_reward}")
+            + ("" if self.observation == "thesis" else f", observation={self.observation!r}") + ")"
         )
 
     # -- parameters -------------------------------------------------------------------
@@ -167,20 +200,54 @@ class DCP(Environment[EnvState, EnvParams]):
         )
 
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
-        return (self.grid_size, self.grid_size, 2)
+        return (self.grid_size, self.grid_size, 2 if self.observation == "thesis" else 4)
 
     def observation_bounds(self, params: EnvParams):
         """Items in ``[0, total_reward]``; the energy plane in ``[0, observed_energy_bound(...)]`` (the budget, or
-        ``max_steps`` for an unlimited one)."""
+        ``max_steps`` for an unlimited one); ``"general"``: both energy planes over :data:`ENERGY_SCALE`, the
+        risk plane in ``[0, 1]``."""
         high = np.zeros(self.observation_shape(params), np.float32)
         high[..., 0] = self.total_reward
-        high[..., 1] = observed_energy_bound(params.max_energy, params.max_steps, params.init_energy)
+        if params.energy_range is not None:
+            energy = float(np.max(np.asarray(params.energy_range)))
+        else:
+            energy = observed_energy_bound(params.max_energy, params.max_steps, params.init_energy)
+        if self.observation == "thesis":
+            high[..., 1] = energy
+        else:
+            high[..., 1] = high[..., 3] = energy / ENERGY_SCALE
+            high[..., 2] = 1.0
         return 0.0, high
+
+    # -- the episode's instance -------------------------------------------------------
+    def risk_of(self, state: EnvState, params: EnvParams) -> jax.Array:
+        """The episode's risk map ``[N, N]``: ``params.risk``, or the map the episode drew from ``params.maps``."""
+        return params.risk if params.maps is None else params.maps[state.map_id]
+
+    def max_energy_of(self, state: EnvState, params: EnvParams) -> jax.Array:
+        """The episode's maximum energy: ``params.max_energy``, or the one the episode drew."""
+        return params.max_energy if state.max_energy is None else state.max_energy
+
+    def _draw_instance(self, key, params: EnvParams):
+        """``(map_id, init_energy, max_energy)`` of a new episode with per-episode instances."""
+        k_map, k_energy = jax.random.split(key)
+        map_id = uniform_index(k_map, (), params.maps.shape[0])
+        low, high = params.energy_range[0], params.energy_range[1]
+        max_e = jnp.floor(low + jax.random.uniform(k_energy) * (high - low + 1.0))
+        max_e = jnp.minimum(max_e, high).astype(jnp.float32)
+        init_e = jnp.clip(jnp.round(params.init_fraction * max_e), 1.0, max_e).astype(jnp.float32)
+        return map_id, init_e, max_e
 
     # -- dynamics ---------------------------------------------------------------------
     def reset_env(self, key, params: EnvParams):
         """A random initial state (section 4.3): multinomial items, then the start cell."""
         n = self.grid_size
+        instance = {}
+        init_energy = params.init_energy
+        if params.maps is not None:  # per-episode instance: its own key, so the rest draws as without one
+            key, k_instance = jax.random.split(key)
+            map_id, init_energy, max_e = self._draw_instance(k_instance, params)
+            instance = {"map_id": map_id, "max_energy": max_e}
         k_items, k_start = jax.random.split(key)
         count = None
         if self.min_total_reward is not None:  # units drawn uniformly from min_total_reward .. total_reward
@@ -203,13 +270,14 @@ class DCP(Environment[EnvState, EnvParams]):
             flat = jnp.sum(count <= k, dtype=jnp.int32)
         state = EnvState(
             pos=jnp.stack([flat // n, flat % n]).astype(jnp.int32),
-            energy=params.init_energy,
+            energy=init_energy,
             items=items.reshape(n, n),
             time=jnp.int32(0),
             outcome=jnp.int32(RUNNING),
             ep_reward=jnp.float32(0.0),
             ep_energy=jnp.int32(0),
             rank=rank.reshape(n, n),
+            **instance,
         )
         return self.observe(state, params), state
 
@@ -220,9 +288,9 @@ class DCP(Environment[EnvState, EnvParams]):
         pos = grid.move(state.pos, action, n)
         reward = state.items[pos[0], pos[1]]
         items = state.items.at[pos[0], pos[1]].set(0.0)
-        hit = jax.random.uniform(key) < params.risk[pos[0], pos[1]]
+        hit = jax.random.uniform(key) < self.risk_of(state, params)[pos[0], pos[1]]
         in_base = jnp.all(pos == 0)
-        energy, out_of_energy = step_energy(state.energy, params.max_energy, in_base)
+        energy, out_of_energy = step_energy(state.energy, self.max_energy_of(state, params), in_base)
         cleared = jnp.all(items <= 0)
         used = energy_used(self.energy_metric, in_base, jnp.all(state.pos == 0))
         unchanged = (
@@ -237,7 +305,7 @@ class DCP(Environment[EnvState, EnvParams]):
         ).astype(jnp.int32)
         terminated = (outcome != RUNNING) & (outcome != TRUNCATED)
         truncated = outcome == TRUNCATED
-        new_state = EnvState(
+        new_state = state.replace(
             pos=pos,
             energy=energy,
             items=items,
@@ -245,7 +313,6 @@ class DCP(Environment[EnvState, EnvParams]):
             outcome=outcome,
             ep_reward=state.ep_reward + reward,
             ep_energy=state.ep_energy + used.astype(jnp.int32),
-            rank=state.rank,
         )
         info = {
             "outcome": outcome,
@@ -258,11 +325,16 @@ class DCP(Environment[EnvState, EnvParams]):
 
     def observe(self, state: EnvState, params: EnvParams):
         """The two planes ``[N, N, 2]``: item rewards and the energy at the agent's cell (section 4.5.1; an
-        unlimited budget shows as ``max_steps``, :func:`~jaxdc.core.energy.observed_energy`)."""
+        unlimited budget shows as ``max_steps``, :func:`~jaxdc.core.energy.observed_energy`). ``"general"``:
+        then the episode's risk map and its maximum energy on every cell, energies over :data:`ENERGY_SCALE`."""
         n = self.grid_size
         here = (jnp.arange(n)[:, None] == state.pos[0]) & (jnp.arange(n)[None, :] == state.pos[1])
         agent = jnp.where(here, observed_energy(state.energy, params.max_steps), 0.0).astype(jnp.float32)
-        return jnp.stack([state.items, agent], axis=-1)
+        if self.observation == "thesis":
+            return jnp.stack([state.items, agent], axis=-1)
+        budget = observed_energy(self.max_energy_of(state, params), params.max_steps) / ENERGY_SCALE
+        return jnp.stack([state.items, agent / ENERGY_SCALE, self.risk_of(state, params),
+                          jnp.full((n, n), budget, jnp.float32)], axis=-1)
 
     # -- text rendering (outside jit) ----------------------------------------------------
     def render_ansi(self, state: EnvState, params: EnvParams) -> str:

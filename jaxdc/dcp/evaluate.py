@@ -19,7 +19,7 @@ from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import RPE_ZERO, episode_summary  # noqa: F401  (RPE_ZERO: the public name)
 from jaxdc.core.validate import check_positive_int
-from jaxdc.dcp import navigators
+from jaxdc.dcp import instances, navigators
 from jaxdc.dcp.env import DCP, OUTCOMES, EnvParams
 from jaxdc.dcp.planners import PlannerConfig
 
@@ -41,6 +41,11 @@ def _run_heuristic(env, params, key, name, cfg, episodes, path_risk):
     return run_episodes(env, params, heuristic_policy(name, table, cfg), key, episodes)
 
 
+@functools.partial(jax.jit, static_argnames=("env", "name", "cfg", "episodes"))
+def _run_instance_heuristic(env, params, key, name, cfg, episodes):
+    return run_episodes(env, params, instances.heuristic_policy(name, params, cfg), key, episodes)
+
+
 def evaluate_heuristic(
     env: DCP,
     params: EnvParams,
@@ -50,9 +55,12 @@ def evaluate_heuristic(
     cfg: PlannerConfig = PlannerConfig(),
     path_risk: str = "departed",
 ):
-    """Final states of ``episodes`` episodes of heuristic policy ``name`` (jitted, batched)."""
+    """Final states of ``episodes`` episodes of heuristic policy ``name`` (jitted, batched); with per-episode maps
+    (``params.maps``) each episode plans on its own map's table."""
     if name not in navigators.POLICIES:
         raise ValueError(f"policy must be one of {navigators.POLICIES}, got {name!r}")
+    if params.maps is not None:
+        return _run_instance_heuristic(env, params, key, name, cfg, check_positive_int("episodes", episodes))
     return _run_heuristic(env, params, key, name, cfg, check_positive_int("episodes", episodes), path_risk)
 
 
@@ -60,8 +68,10 @@ def evaluate_heuristic(
 def _run_learned(env, params, key, net, net_name, net_params, episodes, greedy, epsilon, cfg, path_risk):
     from jaxdc.dcp.learned import Learned, make_policy
 
-    table = safest_paths(params.risk, path_risk)
-    heuristics = navigators.batched_heuristics(params, table, cfg)
+    if params.maps is None:
+        heuristics = navigators.batched_heuristics(params, safest_paths(params.risk, path_risk), cfg)
+    else:  # per-episode maps: each episode's own table (computed with the default path_risk)
+        heuristics = instances.batched_heuristics(params, cfg)
     learned = Learned(net_name, net, net_params, {}, "")
     return run_episodes(env, params, make_policy(learned, heuristics, greedy, epsilon), key, episodes)
 
@@ -90,7 +100,12 @@ def evaluate_learned(
     epsilon = EQN_EPSILON if epsilon is None else float(epsilon)
     if not 0.0 <= epsilon <= 1.0:
         raise ValueError(f"epsilon must be in [0, 1], got {epsilon!r}")
-    net_params = check_params(learned.net_name, learned.net, learned.params, env.grid_size, learned.source)
+    observation = getattr(learned, "observation", "thesis")
+    if env.observation != observation:
+        raise ValueError(f"{learned.source} reads the {observation!r} observation but the environment gives "
+                         f"{env.observation!r}; build it with DCP(..., observation={observation!r})")
+    net_params = check_params(learned.net_name, learned.net, learned.params, env.grid_size, learned.source,
+                              observation)
     episodes = check_positive_int("episodes", episodes)
     return _run_learned(env, params, key, learned.net, learned.net_name, net_params, episodes,
                         bool(greedy), jax.numpy.float32(epsilon), cfg, path_risk)

@@ -38,6 +38,11 @@ DEFAULT_SETTING = {"grid_size": 8, "total_reward": 30, "risk": "high", "energy":
 ENV_OPTION_KEYS = ("start", "items_on_base", "idle_terminates", "item_order")
 
 
+def observation_of(meta: dict) -> str:
+    """The observation a network was trained on (``"thesis"`` where the metadata predates the key)."""
+    return meta.get("observation", "thesis")
+
+
 @dataclasses.dataclass(frozen=True)
 class Learned(pretrained.Learned):
     """A trained DCP network with its parameters and the metadata of how it was trained."""
@@ -50,6 +55,11 @@ class Learned(pretrained.Learned):
         """The ``DCP(...)`` options of training that change the dynamics (defaults where not recorded)."""
         return {k: self.metadata["env"][k] for k in ENV_OPTION_KEYS if k in self.metadata.get("env", {})}
 
+    @property
+    def observation(self) -> str:
+        """``"thesis"`` or ``"general"``: what the network reads (:data:`jaxdc.dcp.env.OBSERVATIONS`)."""
+        return observation_of(self.metadata)
+
 
 def make_network(net_name: str):
     """The flax module of ``net_name`` (ENN Fig. 4.3, EQN Fig. 4.4, linear learner Table 4.9, CNN)."""
@@ -60,17 +70,17 @@ def make_network(net_name: str):
     return EQN() if net_name == "eqn" else make_net(net_name)
 
 
-def init_params(net, grid_size: int, key=None):
+def init_params(net, grid_size: int, key=None, observation: str = "thesis"):
     """Freshly initialised parameters of ``net`` for an ``grid_size x grid_size`` grid (shapes only matter)."""
-    obs = jnp.zeros((1, grid_size, grid_size, 2), jnp.float32)
+    obs = jnp.zeros((1, grid_size, grid_size, 2 if observation == "thesis" else 4), jnp.float32)
     heur = jnp.zeros((1, 10, 9), jnp.float32) if getattr(net, "uses_heuristics", True) else jnp.zeros((1, 1, 9))
     return net.init(key if key is not None else jax.random.PRNGKey(0), obs, heur)
 
 
-def check_params(net_name: str, net, params, grid_size: int, source: str):
+def check_params(net_name: str, net, params, grid_size: int, source: str, observation: str = "thesis"):
     """``params`` as float32 if it has exactly the structure and shapes of ``net`` on ``grid_size`` and every value
     is finite, else ``ValueError`` naming ``source``."""
-    params = check_like(init_params(net, grid_size), params, source,
+    params = check_like(init_params(net, grid_size, observation=observation), params, source,
                         f"a {net_name} network on a {grid_size}x{grid_size} grid",
                         "was it trained on another grid size?")
     pretrained.check_finite(params, source)
@@ -97,7 +107,8 @@ def load(path, net: str | None = None, grid_size: int | None = None, run_seed: i
     name, params, meta, source = pretrained.load_trained(path, "dcp", NETS, _train_state, net,
                                                          _grid_checker(grid_size), run_seed=run_seed)
     module = make_network(name)
-    params = check_params(name, module, params, meta.get("grid_size", DEFAULT_SETTING["grid_size"]), source)
+    params = check_params(name, module, params, meta.get("grid_size", DEFAULT_SETTING["grid_size"]), source,
+                          observation_of(meta))
     return Learned(name, module, params, meta, source)
 
 
@@ -108,9 +119,12 @@ def _train_state(name: str, meta: dict, source: str):
     from jaxdc.dcp import navigators
     from jaxdc.dcp.env import DCP
 
+    from jaxdc.dcp import instances
+
     s = {k: meta.get(k, DEFAULT_SETTING[k]) for k in SETTING_KEYS}
-    env = DCP(grid_size=s["grid_size"], total_reward=s["total_reward"])
+    env = DCP(grid_size=s["grid_size"], total_reward=s["total_reward"], observation=observation_of(meta))
     env_params = env.make_params(s["risk"], tuple(s["energy"]), s["max_steps"])
+    per_episode = "risk_maps" in meta or "energy_range" in meta
     cls = nstep_q.QConfig if name == "eqn" else a2c.A2CConfig
     fields = {f.name for f in dataclasses.fields(cls)}
     algo = {k: v for k, v in meta.get("algorithm", {}).items() if k in fields}
@@ -118,7 +132,11 @@ def _train_state(name: str, meta: dict, source: str):
         config = cls(**algo)
     except (TypeError, ValueError) as e:
         raise ValueError(f"{source}: the metadata has an unusable algorithm configuration: {e}") from None
-    heur = navigators.batched_heuristics(env_params, safest_paths(env_params.risk))
+    if per_episode:  # the state's structure only: one map stands for the run's set
+        env_params = instances.fixed_instance(env, s["risk"], tuple(s["energy"]), s["max_steps"])
+        heur = instances.batched_heuristics(env_params)
+    else:
+        heur = navigators.batched_heuristics(env_params, safest_paths(env_params.risk))
     trainer = (nstep_q if name == "eqn" else a2c).make_train(config, env, env_params, make_network(name), heur)
     return trainer.init(jax.random.PRNGKey(0))
 

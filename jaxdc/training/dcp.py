@@ -20,11 +20,12 @@ from jaxdc.agents import a2c, nstep_q
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import env as dcp_env
-from jaxdc.dcp import navigators
+from jaxdc.dcp import instances, navigators
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
 from jaxdc.training.loop import (RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits,
                                  spread)
+from jaxdc.training.instances import check_instance_settings, instance_metadata, training_params
 from jaxdc.training.metadata import FORMAT
 
 #: Networks: the actor-critics train with A2C, EQN with n-step Q-learning.
@@ -47,6 +48,12 @@ class DCPSettings:
       eval_episodes: episodes per evaluation.
       greedy_eval: evaluate the argmax policy (EQN: epsilon 0).
       eval_epsilon: EQN's evaluation epsilon (section 4.5.5: 0.05).
+      observation: ``"thesis"`` or ``"general"`` (:data:`jaxdc.dcp.env.OBSERVATIONS`).
+      risk_maps, map_seeds, energy_range, init_fraction: per-episode instances (beyond the thesis;
+        :func:`jaxdc.training.instances.training_params`): each episode draws its map from the
+        ``map_seeds = (start, count)`` maps of the named generator (``risk_maps``, one of
+        :data:`jaxdc.core.generators.GENERATORS`; ``None``: the ``risk`` preset) and its maximum energy from
+        ``energy_range`` (``None``: ``energy``), starting with ``init_fraction`` of it.
     """
 
     net: str
@@ -60,6 +67,16 @@ class DCPSettings:
     eval_episodes: int = 500
     greedy_eval: bool = False
     eval_epsilon: float = nstep_q.EVAL_EPSILON
+    observation: str = "thesis"
+    risk_maps: str | None = None
+    map_seeds: tuple[int, int] = (0, 1024)
+    energy_range: tuple[float, float] | None = None
+    init_fraction: float = 0.5
+
+    @property
+    def per_episode(self) -> bool:
+        """Whether episodes draw their own instance (a map set or a budget range)."""
+        return self.risk_maps is not None or self.energy_range is not None
 
     def __post_init__(self):
         if self.net not in NETS:
@@ -67,6 +84,7 @@ class DCPSettings:
         want = nstep_q.QConfig if self.net == "eqn" else a2c.A2CConfig
         if not isinstance(self.config, want):
             raise TypeError(f"net {self.net!r} trains with a {want.__name__}, got {type(self.config).__name__}")
+        check_instance_settings(self)
 
 
 def run_metadata(s: DCPSettings, seeds) -> dict:
@@ -77,6 +95,7 @@ def run_metadata(s: DCPSettings, seeds) -> dict:
         "risk": s.risk, "energy": list(s.energy), "max_steps": s.max_steps, "min_total_reward": s.min_total_reward,
         **({"seeds": seeds} if len(seeds) > 1 else {"seed": seeds[0]}),
         "algorithm": dataclasses.asdict(s.config),
+        **instance_metadata(s),
     }
 
 
@@ -88,14 +107,19 @@ class DCPRun(TrainingRun):
         algo = nstep_q if s.net == "eqn" else a2c
         self.net = EQN() if s.net == "eqn" else make_net(s.net)
         self.env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward,
-                               min_total_reward=s.min_total_reward)
-        self.env_params = self.env.make_params(s.risk, tuple(s.energy), s.max_steps)
-        check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
-        table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
-        self.heuristics = navigators.batched_heuristics(self.env_params, table)
+                               min_total_reward=s.min_total_reward, observation=s.observation)
+        if s.per_episode:
+            self.env_params = training_params(s, self.env)
+            check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
+            self.heuristics = instances.batched_heuristics(self.env_params)
+        else:
+            self.env_params = self.env.make_params(s.risk, tuple(s.energy), s.max_steps)
+            check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
+            table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
+            self.heuristics = navigators.batched_heuristics(self.env_params, table)
         trainer, mesh = spread(algo.make_train(s.config, self.env, self.env_params, self.net, self.heuristics),
                                control, s.config.num_envs)
-        eval_env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward)
+        eval_env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward, observation=s.observation)
 
         def episodes(params, key):
             return run_episodes(eval_env, self.env_params, self.policy(params), key, s.eval_episodes)
