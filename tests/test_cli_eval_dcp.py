@@ -17,12 +17,12 @@ import pytest
 from jaxdc.cli import eval_dcp as cli
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.evaluate import evaluate_heuristic, summarize
-from jaxdc.dcp.risk_map import load_risk_map
-from jaxdc.dcp.rows import Playing, evaluate_rows, table_policies
-from jaxdc.dcp.setting import EnvOptions, Setting, evaluation_setting, make_env
-from jaxdc.dcp.table_learner import check_learner
-from jaxdc.dcp.table_results import markdown_table, table_markdown_file, table_payload
-from jaxdc.dcp.tables import TABLES, incr_rows
+from jaxdc.dcp.analysis.risk_map import load_risk_map
+from jaxdc.dcp.analysis.rows import Playing, evaluate_rows, table_policies
+from jaxdc.dcp.analysis.setting import EnvOptions, Setting, evaluation_setting, make_env
+from jaxdc.dcp.analysis.table_learner import check_learner
+from jaxdc.dcp.analysis.table_results import markdown_table, table_markdown_file, table_payload
+from jaxdc.dcp.analysis.tables import TABLES, incr_rows
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ENV = DCP(grid_size=5, total_reward=6, idle_terminates=True)
@@ -299,8 +299,8 @@ def test_cli_table_with_learned_row_and_incr(tmp_path, capsys):
 
 
 def test_cli_table_best_row_is_the_best_shipped_candidate(tmp_path, capsys):
-    from jaxdc.dcp.best_learner import candidates
-    from jaxdc.dcp.tables import TABLES
+    from jaxdc.dcp.analysis.best_learner import candidates
+    from jaxdc.dcp.analysis.tables import TABLES
 
     names = {c.name for c in candidates(TABLES["4.7"])}
     assert names == {"enn_ppo_energy16_32"}  # the only beyond-the-thesis ENN trained at energy 16/32
@@ -321,8 +321,8 @@ def test_cli_table_best_row_is_the_best_shipped_candidate(tmp_path, capsys):
 
 
 def test_best_candidates_are_read_from_the_metadata():
-    from jaxdc.dcp.best_learner import candidates, differs, tables_of
-    from jaxdc.dcp.tables import TABLES
+    from jaxdc.dcp.analysis.best_learner import candidates, differs, tables_of
+    from jaxdc.dcp.analysis.tables import TABLES
 
     meta = {"tables": "4.3, 4.6, 4.8 (beyond the thesis: the PPO-style option, 1..30 units)"}
     assert tables_of(meta) == ("4.3", "4.6", "4.8") and differs(meta) == "the PPO-style option, 1..30 units"

@@ -15,13 +15,13 @@ import numpy as np
 import pytest
 
 from jaxdc.cli import eval_dcp as cli
-from jaxdc.dcp.tables import incr_rows
+from jaxdc.dcp.analysis.tables import incr_rows
 from jaxdc import pretrained
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.evaluate import evaluate_learned, summarize
-from jaxdc.dcp.tables import TABLES, incr_percent
+from jaxdc.dcp.analysis.tables import TABLES, incr_percent
 
 SMALL = {"problem": "dcp", "grid_size": 5, "total_reward": 6, "risk": "high", "energy": [8.0, 16.0],
          "max_steps": 200,

@@ -1,6 +1,6 @@
-"""jaxdc.drp.claims: section 3.5's claims judged on stored experiment rows (yes, no, n/a)."""
+"""jaxdc.drp.analysis.claims: section 3.5's claims judged on stored experiment rows (yes, no, n/a)."""
 
-from jaxdc.drp.claims import CLAIMS, judge_claims
+from jaxdc.drp.analysis.claims import CLAIMS, judge_claims
 
 ALPHAS = (0, 10, 20, 25, 30, 40, 60)
 #: normalised means per builder that follow the thesis' order (GI ≈ TL ≈ LPG > OSA > GML ≈ NG)

@@ -22,7 +22,7 @@ for the argmax), EQN is epsilon-greedy with ``--epsilon`` 0.05 (section 4.5.5).
 in 4.9, EQN in 4.10) and the incr.% columns: the learner's increment over each
 navigator as a percentage of the navigator's mean. Below the learned row, a
 row ``<net> best`` plays the best shipped jaxdc learner of that table (beyond
-the thesis: :mod:`jaxdc.dcp.best_learner`; named, with how its recipe differs,
+the thesis: :mod:`jaxdc.dcp.analysis.best_learner`; named, with how its recipe differs,
 under the table), and a table of one item (4.8) gets the row ``optimal``, the
 exact optimum of value iteration; ``--no-best`` leaves both out. As in the thesis, the ENN of
 Table 4.3 also plays Tables 4.6 and 4.8; Table 4.7 has its own ENN (energy 16/32).
@@ -57,14 +57,14 @@ from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.learned import EQN_EPSILON, NETS, Learned
 from jaxdc.dcp.navigators import POLICIES
 from jaxdc.dcp.planners import CF_DISTANCES, PlannerConfig
-from jaxdc.dcp.risk_map import load_risk_map
-from jaxdc.dcp.best_learner import best_row
-from jaxdc.dcp.best_learner import row_name as best_row_name
-from jaxdc.dcp.rows import Playing, evaluate_row, evaluate_rows, table_policies
-from jaxdc.dcp.setting import DEFAULT_SETTING, EnvOptions, Setting, evaluation_setting
-from jaxdc.dcp.table_learner import check_learner, shipped_learner
-from jaxdc.dcp.table_results import best_markdown, markdown_table, table_markdown_file, table_payload
-from jaxdc.dcp.tables import TABLES, TableSpec, incr_rows
+from jaxdc.dcp.analysis.risk_map import load_risk_map
+from jaxdc.dcp.analysis.best_learner import best_row
+from jaxdc.dcp.analysis.best_learner import row_name as best_row_name
+from jaxdc.dcp.analysis.rows import Playing, evaluate_row, evaluate_rows, table_policies
+from jaxdc.dcp.analysis.setting import DEFAULT_SETTING, EnvOptions, Setting, evaluation_setting
+from jaxdc.dcp.analysis.table_learner import check_learner, shipped_learner
+from jaxdc.dcp.analysis.table_results import best_markdown, markdown_table, table_markdown_file, table_payload
+from jaxdc.dcp.analysis.tables import TABLES, TableSpec, incr_rows
 from jaxdc.io import atomic_write_set, check_output_folder, enable_compilation_cache, json_text
 from jaxdc.provenance import provenance
 
@@ -143,13 +143,13 @@ class EvalDCPSettings:
     json: bool
     out: str
     command: str  # the command line, as the results files record it
-    best: bool = False  # --table: add the row of the best shipped learner (jaxdc.dcp.best_learner)
+    best: bool = False  # --table: add the row of the best shipped learner (jaxdc.dcp.analysis.best_learner)
 
 
 def resolve_learned(args, spec: TableSpec | None = None) -> Learned | None:
     """The learned network to evaluate (``None`` if none): ``--checkpoint``, or the shipped one of the setting.
 
-    For ``--table`` it is the table's learner (:mod:`jaxdc.dcp.table_learner`);
+    For ``--table`` it is the table's learner (:mod:`jaxdc.dcp.analysis.table_learner`);
     a shipped file that is missing leaves the row out (``None``) and says so on
     stderr.
     """
@@ -235,7 +235,7 @@ def settle(args, spec: TableSpec | None, learned: Learned | None, argv=None) -> 
 
 
 def play_best(settings: EvalDCPSettings, rows: dict, progress=None):
-    """Add the best shipped learner's row to ``rows`` (:func:`jaxdc.dcp.best_learner.best_row`: each candidate on
+    """Add the best shipped learner's row to ``rows`` (:func:`jaxdc.dcp.analysis.best_learner.best_row`: each candidate on
     the same episodes); ``(candidate, row name)`` or ``None`` when the table has none."""
     def evaluate(c):
         playing = dataclasses.replace(settings.playing, greedy=settings.playing.greedy or c.greedy)

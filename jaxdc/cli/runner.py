@@ -43,7 +43,7 @@ def _on_sigterm(signum, frame):
 
 def command_line(prog: str, argv: Sequence[str] | None = None) -> str:
     """The command line a results file records: ``prog`` (as is, e.g. ``"python -m eval.dcp"``), one space, then
-    ``argv`` (default ``sys.argv[1:]``) quoted by :func:`shlex.join`, so that it can be pasted back into a shell.
+    ``argv`` (default ``sys.argv[1:]``) quoted by ``shlex.join``, so that it can be pasted back into a shell.
 
     >>> command_line("python -m eval.dcp", ["--table", "4.3"])
     'python -m eval.dcp --table 4.3'

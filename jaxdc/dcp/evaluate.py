@@ -106,10 +106,10 @@ class OptimalEvaluation(NamedTuple):
 def evaluate_optimal(env: DCP, params: EnvParams, key, episodes: int = 10_000) -> OptimalEvaluation:
     """Final states of the exact optimal policy of the single-item DCP (``total_reward=1``).
 
-    Solves the MDP by value iteration (:mod:`jaxdc.dcp.optimal`) and plays it
+    Solves the MDP by value iteration (:mod:`jaxdc.dcp.exact.optimal`) and plays it
     like any other policy.
     """
-    from jaxdc.dcp.optimal import expected_optimum, optimal_policy, solve_single_item
+    from jaxdc.dcp.exact.optimal import expected_optimum, optimal_policy, solve_single_item
 
     if env.total_reward != 1:
         raise ValueError(f"policy 'optimal' needs total_reward=1 (the single-item setting), got {env.total_reward}")

@@ -5,7 +5,7 @@ recipe), jaxdc's best number with the option that gives it, a verdict, and a
 link to the section below with the command that made it. Every cell is read
 from the stored results (``results/``), never typed in:
 
-* DRP, Figs. 3.1-3.5: the claims of section 3.5 (:mod:`jaxdc.drp.claims`) judged on the largest stored
+* DRP, Figs. 3.1-3.5: the claims of section 3.5 (:mod:`jaxdc.drp.analysis.claims`) judged on the largest stored
   experiment of each node-reward setting (``results/drp/experiment_*.json``).
 * DCP, Tables 4.1 and 4.3-4.10 (``results/dcp/table_*.json``): the navigators' rows, then the learned row and the
   best shipped learner. ``Δ/SE`` is ours minus the thesis in standard errors ``sd / sqrt(episodes)``;
@@ -23,7 +23,7 @@ import os
 import re
 
 from jaxdc.dcg.analysis.claims import STRONG_MARK
-from jaxdc.drp.claims import judge_claims, rows_by_key
+from jaxdc.drp.analysis.claims import judge_claims, rows_by_key
 from jaxdc.report.dcp_tables import delta_se
 from jaxdc.report.stored import read_json, reading, require_fields, table_files
 

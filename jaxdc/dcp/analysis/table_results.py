@@ -1,7 +1,7 @@
 """The written results of a thesis table (section 4.5): the JSON record and the markdown, thesis beside ours.
 
-A table's rows (:mod:`jaxdc.dcp.rows`) and Incr.% columns
-(:func:`jaxdc.dcp.tables.incr_rows`) become ``table_<T>.json`` (the command,
+A table's rows (:mod:`jaxdc.dcp.analysis.rows`) and Incr.% columns
+(:func:`jaxdc.dcp.analysis.tables.incr_rows`) become ``table_<T>.json`` (the command,
 the thesis' numbers, ours, the learned row's provenance) and
 ``table_<T>.md``; the markdown is also what ``python -m eval.dcp`` prints.
 """
@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import os
 
-from jaxdc.dcp.tables import COLUMNS
+from jaxdc.dcp.analysis.tables import COLUMNS
 
 
 def _fmt(x, digits):
@@ -71,7 +71,7 @@ def learned_info(learned) -> dict:
 
 
 def best_info(best) -> dict | None:
-    """What the results JSON says about the best row (:mod:`jaxdc.dcp.best_learner`): its row, the thesis row it
+    """What the results JSON says about the best row (:mod:`jaxdc.dcp.analysis.best_learner`): its row, the thesis row it
     is compared with, the shipped name, source, how its recipe differs, its training setting, greedy play."""
     if best is None:
         return None

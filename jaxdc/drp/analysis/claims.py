@@ -4,7 +4,7 @@ The thesis prints its DRP results as curves without numbers; what can be
 compared are the statements of its text (sections 3.5.1-3.5.3). Each
 :class:`DrpClaim` names its figure, its text, the experiments it reads (by
 node-reward setting, :data:`jaxdc.drp.world.REWARD_SETTINGS`) and a *judge*
-that reads their summary rows (:func:`jaxdc.drp.summary.summarise`) and
+that reads their summary rows (:func:`jaxdc.drp.analysis.summary.summarise`) and
 returns what was measured and whether the claim holds. :func:`judge_claims`
 evaluates them all; a claim whose experiment is missing is ``"n/a"``.
 
