@@ -79,9 +79,9 @@ def drp_rows(results_dir: str) -> list[list[str]]:
     rows = []
     for v in judge_claims(exps):
         word = {"yes": "reproduced", "no": "not reproduced", "partly": "partly", "n/a": "n/a"}[v.agrees]
-        rows.append([f"DRP Fig. {v.figure}", v.claim, v.ours, "—", word,
+        rows.append([f"DRP Fig. {v.source}", v.claim, v.ours, "—", word,
                      "[drp.md](drp.md#the-thesis-claims-beside-ours) `python -m eval.drp figure "
-                     f"{v.figure.split(',')[0]}`"])
+                     f"{v.source.split(',')[0]}`"])
     rows.append(["DRP", "(scale of the experiments judged)", scale, "", "", ""])
     return rows
 
