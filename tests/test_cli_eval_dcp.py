@@ -349,7 +349,7 @@ def test_cli_optimal_policy_matches_its_exact_value(capsys):
 
 
 def test_cli_settles_the_arguments_once():
-    args = cli.build_parser().parse_args(["--policy", "safe_both", "--episodes", "7", "--seed", "3", "--no-idle-stop",
+    args = cli.parse_args(["--policy", "safe_both", "--episodes", "7", "--seed", "3", "--no-idle-stop",
                                           "--cf-distance", "manhattan", "--grid-size", "5", "--max-steps", "40"])
     settings = cli.settle(args, None, None, ["--policy", "safe_both"])
     assert settings.policies == ("safe_both",) and settings.table is None and settings.learned is None
@@ -373,3 +373,21 @@ def test_cli_optimal_needs_single_item(capsys):
         cli.main(["--policy", "optimal", "--episodes", "10"])
     assert e.value.code == 2
     assert "total_reward=1" in capsys.readouterr().err
+
+
+def test_table_subcommand_is_the_table_flag_and_no_subcommand_is_evaluate():
+    flag, sub = cli.parse_args(["--table", "4.8", "--no-learned"]), cli.parse_args(["table", "4.8", "--no-learned"])
+    assert (flag.command, sub.command) == ("evaluate", "table")
+    assert flag.table == sub.table == "4.8" and flag.no_learned and sub.no_learned and sub.policy is None
+    assert cli.parse_args([]).policy == "safe_reward" and cli.parse_args([]).table is None
+    with pytest.raises(SystemExit):
+        cli.parse_args(["table", "4.8", "--policy", "enn"])
+
+
+def test_command_line_is_recorded_as_given():
+    from jaxdc.cli.runner import command_line, with_subcommand
+
+    assert command_line(cli.PROG, ["--table", "4.3"]) == "python -m eval.dcp --table 4.3"
+    assert command_line(cli.PROG, ["--risk-map", "my map.npy"]) == "python -m eval.dcp --risk-map 'my map.npy'"
+    assert with_subcommand(["--table", "4.3"], cli.SUBCOMMANDS, "evaluate") == ["evaluate", "--table", "4.3"]
+    assert with_subcommand(["table", "4.3"], cli.SUBCOMMANDS, "evaluate") == ["table", "4.3"]

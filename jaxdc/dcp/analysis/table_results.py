@@ -19,8 +19,9 @@ def _fmt(x, digits):
     return "—" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.{digits}f}"
 
 
-def markdown_table(spec, rows: dict, incr: dict | None = None) -> str:
-    """Mean ± SD of reward, energy and RPE per row (thesis beside ours; ``spec=None``: ours only), then Incr.%.
+def markdown_table(spec, rows: dict, incr: dict | None = None, note: str | None = None) -> str:
+    """Mean ± SD of reward, energy and RPE per row (thesis beside ours; ``spec=None``: ours only), then ``note``
+    (a paragraph under the table: :func:`best_markdown`), then Incr.%.
 
     An undefined statistic (mean ``None``: RPE when no episode consumed energy) is a dash.
     """
@@ -37,6 +38,8 @@ def markdown_table(spec, rows: dict, incr: dict | None = None) -> str:
                          else "—")
         cells.append(", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v))
         lines.append("| " + " | ".join(cells) + " |")
+    if note:
+        lines += ["", note]
     if incr:
         lines += ["", incr_markdown(incr)]
     return "\n".join(lines)
