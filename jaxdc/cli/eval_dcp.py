@@ -59,6 +59,7 @@ from jaxdc.core import grid
 from jaxdc.core.energy import MAX_FINITE_ENERGY
 from jaxdc.core.paths import PATH_RISK
 from jaxdc.core.sampling import MAX_TOTAL_REWARD
+from jaxdc.core.stats import format_number
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.learned import EQN_EPSILON, NETS, Learned
@@ -269,8 +270,8 @@ def settle(args, spec: TableSpec | None, learned: Learned | None, argv=None) -> 
 
 
 def play_best(settings: EvalDCPSettings, rows: dict, progress=None):
-    """Add the best shipped learner's row to ``rows`` (:func:`jaxdc.dcp.analysis.best_learner.best_row`: each candidate on
-    the same episodes); ``(candidate, row name)`` or ``None`` when the table has none."""
+    """Add the best shipped learner's row to ``rows`` (:func:`jaxdc.dcp.analysis.best_learner.best_row`: each
+    candidate on the same episodes); ``(candidate, row name)`` or ``None`` when the table has none."""
     def evaluate(c):
         playing = dataclasses.replace(settings.playing, greedy=settings.playing.greedy or c.greedy)
         s = evaluate_row(c.learned.net_name, settings.setting, settings.options, playing, c.learned)
@@ -321,7 +322,8 @@ def main(argv=None) -> int:
 
     def progress(name, s):
         if not args.json:
-            print(f"  {name:14s} reward {_mean(s['reward'], 2)}  ({s['seconds']:.1f} s)", file=sys.stderr)
+            reward = format_number(s["reward"]["mean"], 2)
+            print(f"  {name:14s} reward {reward}  ({s['seconds']:.1f} s)", file=sys.stderr)
 
     try:
         if args.energy is not None:
@@ -346,11 +348,6 @@ def main(argv=None) -> int:
     except (TypeError, ValueError, MemoryError) as e:
         parser.error(str(e))
     return show(settings, rows, best)
-
-
-def _mean(stat: dict, digits: int) -> str:
-    """A statistic's mean for a progress line; a dash when it is undefined (``None``)."""
-    return "—" if stat["mean"] is None else f"{stat['mean']:.{digits}f}"
 
 
 def show(settings: EvalDCPSettings, rows: dict, best=None) -> int:

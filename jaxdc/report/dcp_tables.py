@@ -76,7 +76,7 @@ def dcp_table(payload: dict) -> str:
 
 
 def incr_table(incr: dict) -> str:
-    """The incr.% columns of Tables 4.3-4.10, thesis beside ours (``jaxdc.dcp.analysis.tables.incr_percent``)."""
+    """The incr.% columns of Tables 4.3-4.10, thesis beside ours (``jaxdc.core.stats.percent_increase``)."""
     lines = ["| learner's incr.% over | reward thesis | reward ours | energy thesis | energy ours | RPE thesis "
              "| RPE ours |", "|---|---|---|---|---|---|---|"]
     for name, cols in incr.items():

@@ -22,6 +22,7 @@ import glob
 import os
 import re
 
+from jaxdc.core.stats import format_number
 from jaxdc.dcg.analysis.claims import STRONG_MARK
 from jaxdc.drp.analysis.claims import judge_claims, rows_by_key
 from jaxdc.report.dcp_tables import delta_se
@@ -45,10 +46,6 @@ def verdict(d) -> str:
 def anchor(title: str) -> str:
     """The GitHub anchor of a markdown heading (lower case, punctuation dropped, spaces to hyphens)."""
     return re.sub(r"[^\w\- ]", "", title.strip().lower()).replace(" ", "-")
-
-
-def _fmt(x, d=2) -> str:
-    return "—" if x is None else f"{x:.{d}f}"
 
 
 def _se(d) -> str:
@@ -131,10 +128,10 @@ def _dcp_table_rows(p: dict) -> list[list[str]]:
         cell_best, word_best = "—", ""
         if best:
             b_ours, _, b_d = _row_delta(p, best["row"], best.get("thesis_row") or learned)
-            cell_best = f"{_fmt(b_ours)}{_se(b_d)}: `{best['checkpoint']}`, {best['differs']}"
+            cell_best = f"{format_number(b_ours)}{_se(b_d)}: `{best['checkpoint']}`, {best['differs']}"
             word_best = f"; best: {verdict(b_d)}"
-        rows.append([f"DCP Table {p['table']}", f"{learned} reward {_fmt(thesis)}",
-                     f"{_fmt(ours)}{_se(d)}", cell_best, f"faithful: {verdict(d)}{word_best}", where])
+        rows.append([f"DCP Table {p['table']}", f"{learned} reward {format_number(thesis)}",
+                     f"{format_number(ours)}{_se(d)}", cell_best, f"faithful: {verdict(d)}{word_best}", where])
     return rows
 
 
