@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from jaxdc.core.validate import check_choice
+
 #: How RPE treats an episode that consumed no energy (footnote 4 of Table 4.3 is silent).
 RPE_ZERO = ("exclude", "zero")
 
@@ -35,8 +37,7 @@ def reward_per_energy(reward, energy, rpe_zero: str = "exclude") -> np.ndarray:
     Episodes that used no energy are left out (``rpe_zero="exclude"``) or
     count as RPE 0 (``"zero"``).
     """
-    if rpe_zero not in RPE_ZERO:
-        raise ValueError(f"rpe_zero must be one of {RPE_ZERO}, got {rpe_zero!r}")
+    check_choice("rpe_zero", rpe_zero, RPE_ZERO)
     reward = np.asarray(reward, np.float64)
     energy = np.asarray(energy, np.float64)
     used = energy > 0

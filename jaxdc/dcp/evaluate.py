@@ -18,7 +18,7 @@ import numpy as np
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import RPE_ZERO, episode_summary  # noqa: F401  (RPE_ZERO: the public name)
-from jaxdc.core.validate import check_positive_int
+from jaxdc.core.validate import check_choice, check_positive_int
 from jaxdc.dcp import navigators
 from jaxdc.dcp.env import DCP, OUTCOMES, EnvParams
 from jaxdc.dcp.planners import PlannerConfig
@@ -26,8 +26,7 @@ from jaxdc.dcp.planners import PlannerConfig
 
 def heuristic_policy(name: str, table, cfg: PlannerConfig = PlannerConfig()):
     """``policy(key, obs, state)`` for a navigator or planner name (see :data:`navigators.POLICIES`)."""
-    if name not in navigators.POLICIES:
-        raise ValueError(f"policy must be one of {navigators.POLICIES}, got {name!r}")
+    check_choice("policy", name, navigators.POLICIES)
 
     def policy(key, obs, state):
         return navigators.policy_action(name, state, table, cfg)
@@ -51,8 +50,7 @@ def evaluate_heuristic(
     path_risk: str = "departed",
 ):
     """Final states of ``episodes`` episodes of heuristic policy ``name`` (jitted, batched)."""
-    if name not in navigators.POLICIES:
-        raise ValueError(f"policy must be one of {navigators.POLICIES}, got {name!r}")
+    check_choice("policy", name, navigators.POLICIES)
     return _run_heuristic(env, params, key, name, cfg, check_positive_int("episodes", episodes), path_risk)
 
 

@@ -25,6 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdc.core.validate import check_choice
 from jaxdc.io import atomic_write, json_text, read_json
 
 #: The thesis' reward distributions (section 3.5): integer-uniform 4..6, 1..9, all 5.
@@ -114,10 +115,8 @@ def generate(seed: int, n: int = 100, rewards: str = "4-6", base: str = "centre"
     ``rewards`` is one of :data:`REWARD_SETTINGS`; ``base`` is ``corner`` (0, 0)
     or ``centre`` (size/2, size/2). Deterministic in ``seed``.
     """
-    if rewards not in REWARD_SETTINGS:
-        raise ValueError(f"rewards must be one of {sorted(REWARD_SETTINGS)}, got {rewards!r}")
-    if base not in BASE_LOCATIONS:
-        raise ValueError(f"base must be one of {BASE_LOCATIONS}, got {base!r}")
+    check_choice("rewards", rewards, sorted(REWARD_SETTINGS))
+    check_choice("base", base, BASE_LOCATIONS)
     if not (isinstance(n, numbers.Integral) and not isinstance(n, bool) and 1 <= n <= MAX_NODES):
         raise ValueError(f"n must be an integer in [1, {MAX_NODES}], got {n!r}")
     if not (isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and seed >= 0):
