@@ -17,6 +17,7 @@ Everything that takes arrays here is a pure function usable under
 
 from __future__ import annotations
 
+import json
 import math
 import numbers
 from typing import NamedTuple
@@ -26,7 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdc.core.validate import check_choice
-from jaxdc.io import atomic_write, json_text, read_json
+from jaxdc.io import atomic_write, json_text
 
 #: The thesis' reward distributions (section 3.5): integer-uniform 4..6, 1..9, all 5.
 REWARD_SETTINGS = {"4-6": (4, 6), "1-9": (1, 9), "5": (5, 5)}
@@ -236,7 +237,13 @@ def to_dict(graph: Graph) -> dict:
 
 def load(path) -> Graph:
     """Read and validate a graph JSON file."""
-    return from_dict(read_json(str(path), hint="a graph file is what jaxdc.drp.world.save writes"))
+    # read leniently: a NaN or Infinity in the file is refused by validate(), which names the field (base[1])
+    with open(path) as f:
+        try:
+            data = json.load(f)
+        except json.JSONDecodeError as e:
+            raise ValueError(f"graph file {path} is not valid JSON: {e}") from None
+    return from_dict(data)
 
 
 def save(graph: Graph, path) -> None:
