@@ -283,7 +283,11 @@ def _fig_child(graphs, nodes, alphas, out):
 
     try:
         from jaxdc.drp import plans as plans_mod, solve
-        from jaxdc.drp.analysis import experiment
+
+        try:
+            from jaxdc.drp.analysis import experiment
+        except ImportError:  # a revision before the DRP's analysis/ folder
+            from jaxdc.drp import experiment
 
         run_experiment, inner, callers = experiment.run_experiment, plans_mod.plan_tours, (experiment, solve)
     except ImportError:  # a revision that keeps the experiment in eval.drp and the plans in jaxdc.drp.clustering
