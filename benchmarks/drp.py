@@ -36,7 +36,7 @@
     python -m benchmarks.drp --build-against e10e983 --build-sizes 100x32,16x1024 [--json]
 
 6. ``--fig-against REV`` (instead of 1-5): the figure-3.1 experiment (all 12
-   combinations, ``jaxdc.drp.experiment.run_experiment``) on ``--cc-graphs`` graphs of
+   combinations, ``jaxdc.drp.analysis.experiment.run_experiment``) on ``--cc-graphs`` graphs of
    ``--cc-nodes`` nodes x ``--cc-alphas``, with the ``jaxdc`` of ``REV`` and the
    working tree's, each in a fresh process run twice (first run with every
    compilation, then warm), one after the other; reports the total and
@@ -282,7 +282,12 @@ def _fig_child(graphs, nodes, alphas, out):
     from jaxdc.drp.tours import BUILDERS
 
     try:
-        from jaxdc.drp import experiment, plans as plans_mod, solve
+        from jaxdc.drp import plans as plans_mod, solve
+
+        try:
+            from jaxdc.drp.analysis import experiment
+        except ImportError:  # a revision before the DRP's analysis/ folder
+            from jaxdc.drp import experiment
 
         run_experiment, inner, callers = experiment.run_experiment, plans_mod.plan_tours, (experiment, solve)
     except ImportError:  # a revision that keeps the experiment in eval.drp and the plans in jaxdc.drp.clustering
@@ -537,7 +542,7 @@ def _main(argv=None):
         return
 
     from jaxdc.drp import world
-    from jaxdc.drp.experiment import run_experiment
+    from jaxdc.drp.analysis.experiment import run_experiment
     from jaxdc.drp.solve import graph_arrays, solve_instances
     from jaxdc.drp.tours import BUILDERS
 

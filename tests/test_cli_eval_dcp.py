@@ -17,12 +17,12 @@ import pytest
 from jaxdc.cli import eval_dcp as cli
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.evaluate import evaluate_heuristic, summarize
-from jaxdc.dcp.risk_map import load_risk_map
-from jaxdc.dcp.rows import Playing, evaluate_rows, table_policies
-from jaxdc.dcp.setting import EnvOptions, Setting, evaluation_setting, make_env
-from jaxdc.dcp.table_learner import check_learner
-from jaxdc.dcp.table_results import markdown_table, table_markdown_file, table_payload
-from jaxdc.dcp.tables import TABLES, incr_rows
+from jaxdc.dcp.analysis.risk_map import load_risk_map
+from jaxdc.dcp.analysis.rows import Playing, evaluate_rows, table_policies
+from jaxdc.dcp.analysis.setting import EnvOptions, Setting, evaluation_setting, make_env
+from jaxdc.dcp.analysis.table_learner import check_learner
+from jaxdc.dcp.analysis.table_results import markdown_table, table_markdown_file, table_payload
+from jaxdc.dcp.analysis.tables import TABLES, incr_rows
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ENV = DCP(grid_size=5, total_reward=6, idle_terminates=True)
@@ -299,8 +299,8 @@ def test_cli_table_with_learned_row_and_incr(tmp_path, capsys):
 
 
 def test_cli_table_best_row_is_the_best_shipped_candidate(tmp_path, capsys):
-    from jaxdc.dcp.best_learner import candidates
-    from jaxdc.dcp.tables import TABLES
+    from jaxdc.dcp.analysis.best_learner import candidates
+    from jaxdc.dcp.analysis.tables import TABLES
 
     names = {c.name for c in candidates(TABLES["4.7"])}
     assert names == {"enn_ppo_energy16_32"}  # the only beyond-the-thesis ENN trained at energy 16/32
@@ -321,8 +321,8 @@ def test_cli_table_best_row_is_the_best_shipped_candidate(tmp_path, capsys):
 
 
 def test_best_candidates_are_read_from_the_metadata():
-    from jaxdc.dcp.best_learner import candidates, differs, tables_of
-    from jaxdc.dcp.tables import TABLES
+    from jaxdc.dcp.analysis.best_learner import candidates, differs, tables_of
+    from jaxdc.dcp.analysis.tables import TABLES
 
     meta = {"tables": "4.3, 4.6, 4.8 (beyond the thesis: the PPO-style option, 1..30 units)"}
     assert tables_of(meta) == ("4.3", "4.6", "4.8") and differs(meta) == "the PPO-style option, 1..30 units"
@@ -349,7 +349,7 @@ def test_cli_optimal_policy_matches_its_exact_value(capsys):
 
 
 def test_cli_settles_the_arguments_once():
-    args = cli.build_parser().parse_args(["--policy", "safe_both", "--episodes", "7", "--seed", "3", "--no-idle-stop",
+    args = cli.parse_args(["--policy", "safe_both", "--episodes", "7", "--seed", "3", "--no-idle-stop",
                                           "--cf-distance", "manhattan", "--grid-size", "5", "--max-steps", "40"])
     settings = cli.settle(args, None, None, ["--policy", "safe_both"])
     assert settings.policies == ("safe_both",) and settings.table is None and settings.learned is None
@@ -373,3 +373,21 @@ def test_cli_optimal_needs_single_item(capsys):
         cli.main(["--policy", "optimal", "--episodes", "10"])
     assert e.value.code == 2
     assert "total_reward=1" in capsys.readouterr().err
+
+
+def test_table_subcommand_is_the_table_flag_and_no_subcommand_is_evaluate():
+    flag, sub = cli.parse_args(["--table", "4.8", "--no-learned"]), cli.parse_args(["table", "4.8", "--no-learned"])
+    assert (flag.command, sub.command) == ("evaluate", "table")
+    assert flag.table == sub.table == "4.8" and flag.no_learned and sub.no_learned and sub.policy is None
+    assert cli.parse_args([]).policy == "safe_reward" and cli.parse_args([]).table is None
+    with pytest.raises(SystemExit):
+        cli.parse_args(["table", "4.8", "--policy", "enn"])
+
+
+def test_command_line_is_recorded_as_given():
+    from jaxdc.cli.runner import command_line, with_subcommand
+
+    assert command_line(cli.PROG, ["--table", "4.3"]) == "python -m eval.dcp --table 4.3"
+    assert command_line(cli.PROG, ["--risk-map", "my map.npy"]) == "python -m eval.dcp --risk-map 'my map.npy'"
+    assert with_subcommand(["--table", "4.3"], cli.SUBCOMMANDS, "evaluate") == ["evaluate", "--table", "4.3"]
+    assert with_subcommand(["table", "4.3"], cli.SUBCOMMANDS, "evaluate") == ["table", "4.3"]

@@ -76,16 +76,18 @@ def test_arguments_settle_once_into_frozen_records(tmp_path):
     p = cli.build_parser()
     s = cli.settle(p.parse_args(["--out", "o", "figure", "3.4", "--quick", "--alphas", "20,5,2.5,5", "--workers", "1"]))
     assert isinstance(s, cli.FigureSettings)
-    assert (s.rewards, s.graphs, s.nodes, s.alphas, s.workers) == ("1-9", 10, 30, (0, 2.5, 5, 20), 1)
-    assert s.tag == "r1-9_g10_n30_centre_s0"
-    assert s.config == {"rewards": "1-9", "graphs": 10, "nodes": 30, "alphas": [0, 2.5, 5, 20], "base": "centre",
+    e = s.experiment
+    assert (e.rewards, e.graphs, e.nodes, e.alphas, s.workers) == ("1-9", 10, 30, (0, 2.5, 5, 20), 1)
+    assert e.tag == "r1-9_g10_n30_centre_s0"
+    assert e.as_dict() == {"rewards": "1-9", "graphs": 10, "nodes": 30, "alphas": [0, 2.5, 5, 20], "base": "centre",
                         "seed": 0}
     with pytest.raises(dataclasses.FrozenInstanceError):
-        s.graphs = 3
+        e.graphs = 3
     g = cli.settle(p.parse_args(["gaps", "--alphas", "0,7"]))
     assert isinstance(g, cli.GapsSettings) and g.alphas == (0.0, 7.0) and g.out == cli.OUT_DIR
     pl = cli.settle(p.parse_args(["plan", "--graph", "g.json"]))
-    assert pl == cli.PlanSettings(cli.OUT_DIR, "g.json", "gi", "pgc", False, None)
+    assert pl == cli.PlanSettings(out=cli.OUT_DIR, graph="g.json", builder="gi", clustering="pgc", json=False,
+                                  draw=None)
 
 
 def test_figure_graphs_must_be_positive(capsys):

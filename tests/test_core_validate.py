@@ -70,3 +70,15 @@ def test_check_seed_range_and_int_high():
             validate.check_seed("seed", bad)
     with pytest.raises(ValueError, match=r"max_steps must be in \[1, 5\]"):
         validate.check_int("max_steps", 6, 1, 5)
+
+
+def test_check_choice_names_the_setting_and_its_choices():
+    import pytest
+
+    from jaxdc.core.validate import check_choice
+
+    assert check_choice("base", "corner", ("corner", "centre")) == "corner"
+    with pytest.raises(ValueError, match=r"^base must be one of \('corner', 'centre'\), got 'middle'$"):
+        check_choice("base", "middle", ("corner", "centre"))
+    with pytest.raises(ValueError, match="got \\[1\\]"):  # an unhashable value is refused, not a TypeError
+        check_choice("rewards", [1], ["1-9", "4-6", "5"])

@@ -15,13 +15,14 @@ import numpy as np
 import pytest
 
 from jaxdc.cli import eval_dcp as cli
-from jaxdc.dcp.tables import incr_rows
+from jaxdc.dcp.analysis.tables import incr_rows
 from jaxdc import pretrained
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.evaluate import evaluate_learned, summarize
-from jaxdc.dcp.tables import TABLES, incr_percent
+from jaxdc.core.stats import percent_increase
+from jaxdc.dcp.analysis.tables import TABLES
 
 SMALL = {"problem": "dcp", "grid_size": 5, "total_reward": 6, "risk": "high", "energy": [8.0, 16.0],
          "max_steps": 200,
@@ -46,10 +47,10 @@ def _fail(argv, capsys) -> str:
 def test_incr_percent_hand_example():
     # Table 4.3, ENN over Safe-Reward: energy (23.87 - 29.65) / 29.65 = -19.49 % (as printed);
     # reward (13.16 - 11.55) / 11.55 = 13.94 % (printed 13.99: the thesis used unrounded means)
-    assert incr_percent(23.87, 29.65) == pytest.approx(-19.494, abs=1e-3)
-    assert incr_percent(13.16, 11.55) == pytest.approx(13.939, abs=1e-3)
-    assert incr_percent(1.0, 0.0) is None and incr_percent(None, 1.0) is None
-    assert incr_percent(math.nan, 1.0) is None
+    assert percent_increase(23.87, 29.65) == pytest.approx(-19.494, abs=1e-3)
+    assert percent_increase(13.16, 11.55) == pytest.approx(13.939, abs=1e-3)
+    assert percent_increase(1.0, 0.0) is None and percent_increase(None, 1.0) is None
+    assert percent_increase(math.nan, 1.0) is None
     spec = TABLES["4.10"]
     ours = {n: {c: {"mean": v} for c, v in zip(("reward", "energy", "rpe"), (2.0, 4.0, 0.5))}
             for n in spec.heuristic_rows}

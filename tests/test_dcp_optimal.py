@@ -1,4 +1,4 @@
-"""Exact single-item DCP optimum (jaxdc.dcp.optimal; Table 4.8, section 4.5.4)."""
+"""Exact single-item DCP optimum (jaxdc.dcp.exact.optimal; Table 4.8, section 4.5.4)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import navigators
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.evaluate import OptimalEvaluation, evaluate_heuristic, evaluate_optimal, summarize
-from jaxdc.dcp.optimal import expected_optimum, optimal_policy, solve_single_item
+from jaxdc.dcp.exact.optimal import expected_optimum, optimal_policy, solve_single_item
 
 MOVES = [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)]
 

@@ -1,6 +1,6 @@
-"""jaxdc.drp.claims: section 3.5's claims judged on stored experiment rows (yes, no, n/a)."""
+"""jaxdc.drp.analysis.claims: section 3.5's claims judged on stored experiment rows (yes, no, n/a)."""
 
-from jaxdc.drp.claims import CLAIMS, judge_claims
+from jaxdc.drp.analysis.claims import CLAIMS, judge_claims
 
 ALPHAS = (0, 10, 20, 25, 30, 40, 60)
 #: normalised means per builder that follow the thesis' order (GI ≈ TL ≈ LPG > OSA > GML ≈ NG)
@@ -37,7 +37,7 @@ def test_claims_hold_on_rows_that_follow_the_text():
 def test_a_broken_order_and_low_ratios_are_not_reproduced():
     exps = {"4-6": _record(swap_at=20, ratio=0.7, ratio60=0.8)}
     got = _verdicts(exps)
-    order = next(v for v in got.values() if v.figure == "3.1" and "order" in v.claim)
+    order = next(v for v in got.values() if v.source == "3.1" and "order" in v.claim)
     assert order.agrees == "no" and "fails at α = 20" in order.ours
     assert next(v for v in got.values() if "above 0.8" in v.claim).agrees == "no"
     assert next(v for v in got.values() if "about 0.4" in v.claim).agrees == "no"
@@ -45,5 +45,5 @@ def test_a_broken_order_and_low_ratios_are_not_reproduced():
 
 def test_claims_reading_a_missing_experiment_are_na():
     got = _verdicts({"4-6": _record()})
-    variance = [v for v in got.values() if v.figure == "3.4, 3.5"]
+    variance = [v for v in got.values() if v.source == "3.4, 3.5"]
     assert variance and all(v.agrees == "n/a" and "1-9" in v.ours for v in variance)

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import drp_reference as ref
-from jaxdc.drp import exact, world
+from jaxdc.drp import world
+from jaxdc.drp.exact import subset_dp
 
 
 @pytest.mark.parametrize("n", [1, 3, 5, 6])
@@ -13,7 +14,7 @@ def test_exact_matches_brute_force(n):
         g = world.generate(seed, n=n, size=30, rewards="1-9", alpha=float(7 * seed))
         D, beta, _ = world.arrays(g)
         Dl, bl = np.asarray(D, float).tolist(), np.asarray(beta, float).tolist()
-        value, tours = exact.solve(Dl, bl, 0.99)
+        value, tours = subset_dp.solve(Dl, bl, 0.99)
         assert value == pytest.approx(ref.brute_force(Dl, bl, 0.99), rel=1e-9, abs=1e-9)
         assert value == pytest.approx(ref.expected_reward(Dl, bl, 0.99, tours), rel=1e-9, abs=1e-9)
         visited = [v for t in tours for v in t]
@@ -25,7 +26,7 @@ def test_exact_bounds_the_heuristics():
         g = world.generate(seed, n=7, size=40, alpha=20.0)
         D, beta, _ = world.arrays(g)
         Dl, bl = np.asarray(D, float).tolist(), np.asarray(beta, float).tolist()
-        value, _ = exact.solve(Dl, bl, 0.99)
+        value, _ = subset_dp.solve(Dl, bl, 0.99)
         for b in ("ng", "gi"):
             R = lambda C: ref.tour_reward(Dl, bl, 0.99, ref.build_tour(b, Dl, bl, 0.99, C))
             h = sum(max(R(C), 0.0) for C in ref.nc(Dl, bl, 0.99, R))
@@ -36,4 +37,4 @@ def test_exact_rejects_large_graphs():
     g = world.generate(0, n=10)
     D, beta, _ = world.arrays(g)
     with pytest.raises(ValueError, match="n=10"):
-        exact.solve(D, beta, 0.99)
+        subset_dp.solve(D, beta, 0.99)

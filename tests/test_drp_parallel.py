@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from jaxdc.drp.experiment import run_experiment
-from jaxdc.drp.parallel import NC_COST, builder_groups, run_parallel
+from jaxdc.drp.analysis.experiment import run_experiment
+from jaxdc.drp.analysis.parallel import NC_COST, builder_groups, run_parallel
 from jaxdc.drp.tours import BUILDERS
 
 

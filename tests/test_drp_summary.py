@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from jaxdc.drp.summary import ROW_FIELDS, experiment_record, markdown_tables, rows_csv, summarise
+from jaxdc.drp.analysis.summary import ROW_FIELDS, experiment_record, markdown_tables, rows_csv, summarise
 
 RAW = {("nc", "gi"): np.array([[10.0, 5.0], [30.0, 5.0]]), ("pgc", "gi"): np.array([[10.0, 2.0], [30.0, 3.0]])}
 

@@ -19,7 +19,8 @@ from cli_checks import refused
 from jaxdc.cli import eval_drp as cli
 from jaxdc.core.validate import SEED_MAX
 from jaxdc.drp import world
-from jaxdc.drp.summary import markdown_tables, rows_csv, summarise
+from jaxdc.drp.analysis import cache
+from jaxdc.drp.analysis.summary import markdown_tables, rows_csv, summarise
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -79,14 +80,14 @@ def test_figure_too_big_for_memory_says_what_to_lower(tmp_path, capsys, monkeypa
 
 
 def test_figure_out_under_a_file_is_refused_before_work(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(cli, "_compute_experiment", lambda s: pytest.fail("work started"))
+    monkeypatch.setattr(cache, "compute_experiment", lambda *a, **k: pytest.fail("work started"))
     (tmp_path / "file").write_text("x")
     _refused(["--out", str(tmp_path / "file" / "o"), "figure", "3.1", "--quick"], capsys, "--out", "is a file")
     assert os.listdir(tmp_path) == ["file"]
 
 
 def test_figure_out_in_a_read_only_folder_is_refused_before_work(read_only_folder, capsys, monkeypatch):
-    monkeypatch.setattr(cli, "_compute_experiment", lambda s: pytest.fail("work started"))
+    monkeypatch.setattr(cache, "compute_experiment", lambda *a, **k: pytest.fail("work started"))
     _refused(["--out", str(read_only_folder / "o"), "figure", "3.1", "--quick"], capsys, "--out", "not writable")
     assert os.listdir(read_only_folder) == []
 
@@ -94,18 +95,19 @@ def test_figure_out_in_a_read_only_folder_is_refused_before_work(read_only_folde
 # ----------------------------------------------------------------------------- figure outputs
 
 
-def _fake_record(s, norm_zero=False):
-    alphas = list(s.alphas)
-    raw = {(c, b): np.full((s.graphs, len(alphas)), 0.0 if norm_zero else 2.0)
+def _fake_record(config, norm_zero=False, **_):
+    """Stands in for :func:`jaxdc.drp.analysis.cache.compute_experiment`: every plan earns 2 (or 0)."""
+    alphas = list(config.alphas)
+    raw = {(c, b): np.full((config.graphs, len(alphas)), 0.0 if norm_zero else 2.0)
            for c in ("nc", "pgc") for b in ("gi", "ng", "tl", "osa", "gml", "lpg")}
-    from jaxdc.drp.summary import experiment_record
-    return experiment_record(s.config, raw, {"nc_gi": 1.0}, 1.5, alphas)
+    from jaxdc.drp.analysis.summary import experiment_record
+    return experiment_record(config.as_dict(), raw, {"nc_gi": 1.0}, 1.5, alphas)
 
 
 def test_figure_files_land_together_or_not_at_all(tmp_path, capsys, monkeypatch):
     import jaxdc.viewer.curves as curves
 
-    monkeypatch.setattr(cli, "_compute_experiment", _fake_record)
+    monkeypatch.setattr(cache, "compute_experiment", _fake_record)
     out = tmp_path / "o"
     argv = ["--out", str(out), "figure", "3.1", "--quick", "--alphas", "0,10", "--quiet"]
     real = curves.draw_curves
@@ -126,7 +128,7 @@ def test_figure_files_land_together_or_not_at_all(tmp_path, capsys, monkeypatch)
 
 
 def test_figure_undefined_normaliser_is_null_with_a_reason(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(cli, "_compute_experiment", lambda s: _fake_record(s, norm_zero=True))
+    monkeypatch.setattr(cache, "compute_experiment", lambda c, **k: _fake_record(c, norm_zero=True))
     out = tmp_path / "o"
     assert cli.main(["--out", str(out), "figure", "3.1", "--quick", "--alphas", "0,10", "--quiet"]) == 0
     capsys.readouterr()
@@ -139,15 +141,15 @@ def test_figure_undefined_normaliser_is_null_with_a_reason(tmp_path, capsys, mon
 
 
 def test_figure_unreadable_stored_results_are_recomputed(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(cli, "_compute_experiment", _fake_record)
+    monkeypatch.setattr(cache, "compute_experiment", _fake_record)
     out = tmp_path / "o"
     out.mkdir()
     s = cli.settle(cli.build_parser().parse_args(["--out", str(out), "figure", "3.1", "--quick", "--alphas", "0,10"]))
-    (out / f"experiment_{s.tag}.json").write_text('{"config": ')
+    (out / f"experiment_{s.experiment.tag}.json").write_text('{"config": ')
     assert cli.main(["--out", str(out), "figure", "3.1", "--quick", "--alphas", "0,10", "--quiet"]) == 0
     err = capsys.readouterr().err
     assert "cannot be read" in err and "recomputing" in err and "Traceback" not in err
-    _strict((out / f"experiment_{s.tag}.json").read_text())
+    _strict((out / f"experiment_{s.experiment.tag}.json").read_text())
 
 
 def test_summarise_never_yields_nan():

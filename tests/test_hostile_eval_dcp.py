@@ -29,10 +29,10 @@ from jaxdc.cli import eval_report as report
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.dcp.planners import PlannerConfig
-from jaxdc.dcp.risk_map import load_risk_map
-from jaxdc.dcp.rows import Playing, check_drop_fits
-from jaxdc.dcp.setting import Setting
-from jaxdc.dcp.table_results import markdown_table
+from jaxdc.dcp.analysis.risk_map import load_risk_map
+from jaxdc.dcp.analysis.rows import Playing, check_drop_fits
+from jaxdc.dcp.analysis.setting import Setting
+from jaxdc.dcp.analysis.table_results import markdown_table
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -104,7 +104,7 @@ def test_dcp_optimal_solver_too_large_for_memory(capsys, monkeypatch):
     monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**30))
     _refused(cli.main, ["--policy", "optimal", "--total-reward", "1", "--energy", "4", "100000", "--episodes", "5",
                         "--json"], capsys, "maximum energy 100000", "lower")
-    from jaxdc.dcp.optimal import solve_single_item
+    from jaxdc.dcp.exact.optimal import solve_single_item
 
     with pytest.raises(MemoryError, match="100x100"):
         solve_single_item(np.zeros((100, 100), np.float32), 16, 8)

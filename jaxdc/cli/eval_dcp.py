@@ -6,9 +6,14 @@ Examples::
     python -m eval.dcp --policy enn --risk high --episodes 10000 --json   # the shipped ENN (Table 4.3 setting)
     python -m eval.dcp --policy eqn --checkpoint runs/dcp-eqn-high-s0     # a train.dcp run folder
     python -m eval.dcp --table 4.3                 # the whole table with the learned row, thesis beside ours
+    python -m eval.dcp table 4.3                   # the same, as a subcommand
     python -m eval.dcp --table 4.7 --checkpoint my_enn.msgpack            # the learned row from an exported file
     python -m eval.dcp --table 4.1 --json          # one JSON object keyed by policy name
     python -m eval.dcp --policy safe_both --risk-map my_map.npy --energy 10 20
+
+Subcommands: ``evaluate`` (the default, also when a command line names none)
+plays one ``--policy``, or a table with ``--table T``; ``table T`` is
+``evaluate --table T`` spelled as a subcommand.
 
 A learned policy (``--policy enn|linear|cnn|eqn``) is the shipped parameter
 file trained in the requested risk/energy setting (``jaxdc/assets/dcp``), or
@@ -22,7 +27,7 @@ for the argmax), EQN is epsilon-greedy with ``--epsilon`` 0.05 (section 4.5.5).
 in 4.9, EQN in 4.10) and the incr.% columns: the learner's increment over each
 navigator as a percentage of the navigator's mean. Below the learned row, a
 row ``<net> best`` plays the best shipped jaxdc learner of that table (beyond
-the thesis: :mod:`jaxdc.dcp.best_learner`; named, with how its recipe differs,
+the thesis: :mod:`jaxdc.dcp.analysis.best_learner`; named, with how its recipe differs,
 under the table), and a table of one item (4.8) gets the row ``optimal``, the
 exact optimum of value iteration; ``--no-best`` leaves both out. As in the thesis, the ENN of
 Table 4.3 also plays Tables 4.6 and 4.8; Table 4.7 has its own ENN (energy 16/32).
@@ -49,39 +54,70 @@ import os
 import sys
 
 from jaxdc.cli.args import integer, positive_float, positive_int, real, seed, unit_interval
+from jaxdc.cli.runner import command_line, with_subcommand
 from jaxdc.core import grid
 from jaxdc.core.energy import MAX_FINITE_ENERGY
 from jaxdc.core.paths import PATH_RISK
+from jaxdc.core.sampling import MAX_TOTAL_REWARD
+from jaxdc.core.stats import format_number
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.learned import EQN_EPSILON, NETS, Learned
 from jaxdc.dcp.navigators import POLICIES
 from jaxdc.dcp.planners import CF_DISTANCES, PlannerConfig
-from jaxdc.dcp.risk_map import load_risk_map
-from jaxdc.dcp.best_learner import best_row
-from jaxdc.dcp.best_learner import row_name as best_row_name
-from jaxdc.dcp.rows import Playing, evaluate_row, evaluate_rows, table_policies
-from jaxdc.dcp.setting import DEFAULT_SETTING, EnvOptions, Setting, evaluation_setting
-from jaxdc.dcp.table_learner import check_learner, shipped_learner
-from jaxdc.dcp.table_results import best_markdown, markdown_table, table_markdown_file, table_payload
-from jaxdc.dcp.tables import TABLES, TableSpec, incr_rows
+from jaxdc.dcp.analysis.best_learner import best_row
+from jaxdc.dcp.analysis.best_learner import row_name as best_row_name
+from jaxdc.dcp.analysis.risk_map import load_risk_map
+from jaxdc.dcp.analysis.rows import Playing, evaluate_row, evaluate_rows, table_policies
+from jaxdc.dcp.analysis.setting import DEFAULT_SETTING, EnvOptions, Setting, evaluation_setting
+from jaxdc.dcp.analysis.table_learner import check_learner, shipped_learner
+from jaxdc.dcp.analysis.table_results import best_markdown, markdown_table, table_markdown_file, table_payload
+from jaxdc.dcp.analysis.tables import TABLES, TableSpec, incr_rows
 from jaxdc.io import atomic_write_set, check_output_folder, enable_compilation_cache, json_text
 from jaxdc.provenance import provenance
 
 PROG = "python -m eval.dcp"
 #: Where ``--table`` writes its results unless ``--out`` is given.
 DEFAULT_OUT = os.path.join("results", "dcp")
-#: The largest ``--total-reward``: the observation counts items in float32, exact up to 2**24.
-MAX_TOTAL_REWARD = 2**24
+#: The subcommands; a command line that names none is an ``evaluate`` (as before they existed).
+SUBCOMMANDS, DEFAULT_SUBCOMMAND = ("evaluate", "table"), "evaluate"
+#: The tables, in the thesis' order.
+TABLE_NAMES = sorted(TABLES, key=lambda t: float(t))
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0])
+    """The parser of ``python -m eval.dcp``: the subcommands ``evaluate`` (one ``--policy``, or ``--table T``)
+    and ``table T``; :func:`parse_args` puts ``evaluate`` in front of a command line without a subcommand."""
+    description = __doc__.split("\n\n")[0]
+    parser = argparse.ArgumentParser(prog=PROG, description=description)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{" + ",".join(SUBCOMMANDS) + "}")
+    p = sub.add_parser("evaluate", prog=PROG, description=description,
+                       help="evaluate one policy, or a table with --table (the default)",
+                       epilog="subcommand: `table T` (see `python -m eval.dcp table -h`)")
     what = p.add_mutually_exclusive_group()
     what.add_argument("--policy", choices=POLICIES + ("optimal",) + NETS, default="safe_reward",
                       help="heuristic policy to evaluate; 'optimal' = exact value iteration (needs --total-reward 1); "
                            "enn/linear/cnn/eqn = a learned network (shipped, or --checkpoint)")
-    what.add_argument("--table", choices=sorted(TABLES, key=lambda t: float(t)), help="reproduce a thesis table")
+    what.add_argument("--table", choices=TABLE_NAMES, help="reproduce a thesis table")
+    _add_options(p)
+    t = sub.add_parser("table", prog=f"{PROG} table", description="Reproduce a thesis table (Tables 4.1, 4.3-4.10).",
+                       help="reproduce a thesis table (the same as evaluate --table T)")
+    t.add_argument("table", choices=TABLE_NAMES, help="the thesis table")
+    t.set_defaults(policy=None)
+    _add_options(t)
+    for q in (p, t):
+        q.set_defaults(parser=q)
+    return parser
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    """``argv`` (default ``sys.argv[1:]``) parsed, ``evaluate`` being the subcommand when none is named; the
+    namespace's ``parser`` is the subcommand's (for its error messages)."""
+    return build_parser().parse_args(with_subcommand(argv, SUBCOMMANDS, DEFAULT_SUBCOMMAND))
+
+
+def _add_options(p: argparse.ArgumentParser) -> None:
+    """The flags both subcommands take: the network, the setting, the thesis' ambiguities, the output."""
     p.add_argument("--checkpoint", metavar="PATH|NAME",
                    help="learned parameters: a train.dcp run folder, a .msgpack file or a shipped network's name "
                         "(e.g. enn_ppo; jaxdc.pretrained); "
@@ -127,7 +163,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rpe-zero", choices=("exclude", "zero"), default="exclude")
     p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
     p.add_argument("--out", default=None, help=f"folder for --table results (default {DEFAULT_OUT})")
-    return p
 
 
 @dataclasses.dataclass(frozen=True)
@@ -143,13 +178,13 @@ class EvalDCPSettings:
     json: bool
     out: str
     command: str  # the command line, as the results files record it
-    best: bool = False  # --table: add the row of the best shipped learner (jaxdc.dcp.best_learner)
+    best: bool = False  # --table: add the row of the best shipped learner (jaxdc.dcp.analysis.best_learner)
 
 
 def resolve_learned(args, spec: TableSpec | None = None) -> Learned | None:
     """The learned network to evaluate (``None`` if none): ``--checkpoint``, or the shipped one of the setting.
 
-    For ``--table`` it is the table's learner (:mod:`jaxdc.dcp.table_learner`);
+    For ``--table`` it is the table's learner (:mod:`jaxdc.dcp.analysis.table_learner`);
     a shipped file that is missing leaves the row out (``None``) and says so on
     stderr.
     """
@@ -230,13 +265,13 @@ def settle(args, spec: TableSpec | None, learned: Learned | None, argv=None) -> 
     return EvalDCPSettings(
         table=spec, policies=_table_rows(spec, learned, args.no_best) if spec else (args.policy,), learned=learned,
         setting=setting, options=options, playing=playing, json=args.json, out=args.out or DEFAULT_OUT,
-        command=PROG + " " + " ".join(argv if argv is not None else sys.argv[1:]),
+        command=command_line(PROG, argv),
         best=bool(spec and learned is not None and not args.no_best))
 
 
 def play_best(settings: EvalDCPSettings, rows: dict, progress=None):
-    """Add the best shipped learner's row to ``rows`` (:func:`jaxdc.dcp.best_learner.best_row`: each candidate on
-    the same episodes); ``(candidate, row name)`` or ``None`` when the table has none."""
+    """Add the best shipped learner's row to ``rows`` (:func:`jaxdc.dcp.analysis.best_learner.best_row`: each
+    candidate on the same episodes); ``(candidate, row name)`` or ``None`` when the table has none."""
     def evaluate(c):
         playing = dataclasses.replace(settings.playing, greedy=settings.playing.greedy or c.greedy)
         s = evaluate_row(c.learned.net_name, settings.setting, settings.options, playing, c.learned)
@@ -268,8 +303,8 @@ def write_table(settings: EvalDCPSettings, rows: dict, incr: dict, table: str, b
 
 def main(argv=None) -> int:
     """Run the command line; the exit status (a bad flag value exits 2 through argparse, with one error line)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parse_args(argv)
+    parser = args.parser
     spec = TABLES[args.table] if args.table else None
     if spec and args.risk_map:
         parser.error("--table runs the thesis' own setting; it cannot take --risk-map")
@@ -287,7 +322,8 @@ def main(argv=None) -> int:
 
     def progress(name, s):
         if not args.json:
-            print(f"  {name:14s} reward {_mean(s['reward'], 2)}  ({s['seconds']:.1f} s)", file=sys.stderr)
+            reward = format_number(s["reward"]["mean"], 2)
+            print(f"  {name:14s} reward {reward}  ({s['seconds']:.1f} s)", file=sys.stderr)
 
     try:
         if args.energy is not None:
@@ -314,11 +350,6 @@ def main(argv=None) -> int:
     return show(settings, rows, best)
 
 
-def _mean(stat: dict, digits: int) -> str:
-    """A statistic's mean for a progress line; a dash when it is undefined (``None``)."""
-    return "—" if stat["mean"] is None else f"{stat['mean']:.{digits}f}"
-
-
 def show(settings: EvalDCPSettings, rows: dict, best=None) -> int:
     """Print the rows (one JSON object with ``--json``, else the markdown table); a table also writes its files.
     ``best``: the best shipped learner's ``(candidate, row name)``, named under the table."""
@@ -326,10 +357,7 @@ def show(settings: EvalDCPSettings, rows: dict, best=None) -> int:
     learner = settings.learned.net_name if settings.learned is not None else None
     incr = incr_rows(spec, rows, learner) if spec else {}
     shown = rows if best is None else {(f"{k}: {best[0].name}" if k == best[1] else k): v for k, v in rows.items()}
-    table = markdown_table(spec, shown, incr)
-    if best is not None:
-        table = table.replace("\n\n| incr.% over", f"\n\n{best_markdown(best)}\n\n| incr.% over", 1) \
-            if "\n\n| incr.% over" in table else table + "\n\n" + best_markdown(best)
+    table = markdown_table(spec, shown, incr, note=best_markdown(best) if best is not None else None)
     if spec:
         path = write_table(settings, rows, incr, table, best)
     if settings.json:

@@ -16,17 +16,16 @@ from __future__ import annotations
 
 import argparse
 import io
-import json
 import os
 import sys
-import time
 from dataclasses import dataclass
 
 from jaxdc.cli.args import positive_float, positive_int, seed
 from jaxdc.cli.runner import run
 from jaxdc.core.validate import SEED_MAX
-from jaxdc.drp.exact import MAX_NODES as EXACT_MAX_NODES
-from jaxdc.drp.experiment import DEFAULT_ALPHAS, FIGURE_REWARDS
+from jaxdc.drp.analysis import cache
+from jaxdc.drp.analysis.experiment import DEFAULT_ALPHAS, FIGURE_REWARDS, ExperimentConfig
+from jaxdc.drp.exact.subset_dp import MAX_NODES as EXACT_MAX_NODES
 from jaxdc.drp.solve import CLUSTERINGS
 from jaxdc.drp.tours import BUILDERS
 from jaxdc.drp.world import COORD_MAX, MAX_NODES, VALUE_MAX
@@ -59,27 +58,12 @@ class FigureSettings:
 
     out: str
     figure: str
-    rewards: str
-    graphs: int
-    nodes: int
-    alphas: tuple
-    base: str
-    seed: int
+    experiment: ExperimentConfig
     force: bool
     cache: bool
     workers: int
     quiet: bool
     markdown: bool
-
-    @property
-    def config(self) -> dict:
-        """The experiment's settings as stored with its results (a stored run is reused only if they match)."""
-        return {"rewards": self.rewards, "graphs": self.graphs, "nodes": self.nodes, "alphas": list(self.alphas),
-                "base": self.base, "seed": self.seed}
-
-    @property
-    def tag(self) -> str:
-        return f"r{self.rewards}_g{self.graphs}_n{self.nodes}_{self.base}_s{self.seed}"
 
 
 @dataclass(frozen=True)
@@ -142,17 +126,19 @@ def _gap_alphas(text):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m eval.drp", description=__doc__,
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", default=OUT_DIR, help="output folder (default results/drp)")
     sub = p.add_subparsers(dest="cmd", required=True)
     pp = sub.add_parser("plan", help="plan one graph JSON file")
+    pp.set_defaults(settle=_plan_settings, run=run_plan)
     pp.add_argument("--graph", required=True)
     pp.add_argument("--builder", choices=BUILDERS, default="gi")
     pp.add_argument("--clustering", choices=CLUSTERINGS, default="pgc")
     pp.add_argument("--json", action="store_true", help="print exactly one JSON object")
     pp.add_argument("--draw", metavar="PNG", type=_png, help="also draw the tours, one colour per robot, to this PNG")
     pf = sub.add_parser("figure", help="rerun a chapter-3 figure")
+    pf.set_defaults(settle=_figure_settings, run=run_figure)
     pf.add_argument("figure", choices=sorted(FIGURE_REWARDS))
     pf.add_argument("--graphs", type=positive_int("--graphs", MAX_GRAPHS), default=100)
     pf.add_argument("--nodes", type=positive_int("--nodes", MAX_NODES), default=100)
@@ -170,6 +156,7 @@ def build_parser() -> argparse.ArgumentParser:
     pf.add_argument("--markdown", action="store_true",
                     help="print the normalised mean (SD) and PGC/NC tables at alpha = 10..60 instead of the JSON line")
     pg = sub.add_parser("gaps", help="heuristics against the exact solver on small graphs")
+    pg.set_defaults(settle=_gaps_settings, run=run_gaps)
     pg.add_argument("--graphs", type=positive_int("--graphs", MAX_GRAPHS), default=200)
     pg.add_argument("--nodes", type=positive_int("--nodes", EXACT_MAX_NODES), default=8,
                     help=f"nodes per graph, 1..{EXACT_MAX_NODES} (the exact solver's limit)")
@@ -183,31 +170,44 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def settle(args):
+def _plan_settings(args) -> PlanSettings:
+    return PlanSettings(out=args.out, graph=args.graph, builder=args.builder, clustering=args.clustering,
+                        json=args.json, draw=args.draw)
+
+
+def _figure_settings(args) -> FigureSettings:
+    graphs, nodes = (10, 30) if args.quick else (args.graphs, args.nodes)
+    experiment = ExperimentConfig(rewards=FIGURE_REWARDS[args.figure], graphs=graphs, nodes=nodes,
+                                  alphas=args.alphas, base=args.base, seed=args.seed)
+    return FigureSettings(out=args.out, figure=args.figure, experiment=experiment, force=args.force,
+                          cache=args.cache, workers=args.workers, quiet=args.quiet, markdown=args.markdown)
+
+
+def _gaps_settings(args) -> GapsSettings:
+    return GapsSettings(out=args.out, graphs=args.graphs, nodes=args.nodes, size=args.size, alphas=args.alphas,
+                        base=args.base, seed=args.seed, quiet=args.quiet)
+
+
+def settle(args) -> PlanSettings | FigureSettings | GapsSettings:
     """The parsed arguments as the settings record of their subcommand."""
-    if args.cmd == "plan":
-        return PlanSettings(args.out, args.graph, args.builder, args.clustering, args.json, args.draw)
-    if args.cmd == "figure":
-        graphs, nodes = (10, 30) if args.quick else (args.graphs, args.nodes)
-        return FigureSettings(args.out, args.figure, FIGURE_REWARDS[args.figure], graphs, nodes,
-                              args.alphas, args.base, args.seed, args.force, args.cache, args.workers,
-                              args.quiet, args.markdown)
-    return GapsSettings(args.out, args.graphs, args.nodes, args.size, args.alphas, args.base, args.seed, args.quiet)
+    return args.settle(args)
 
 
 def check_settings(p: argparse.ArgumentParser, s) -> None:
     """Refuse, before any work, settings the flags' own ranges let through: seeds past ``SEED_MAX`` for the
     later graphs, an experiment too big for the machine's memory, unwritable outputs."""
-    if isinstance(s, (FigureSettings, GapsSettings)) and s.seed + s.graphs - 1 > SEED_MAX:
-        p.error(f"--seed {s.seed} with --graphs {s.graphs}: graph i uses seed + i, which must stay <= {SEED_MAX}; "
-                f"lower --seed or --graphs")
+    counts = s.experiment if isinstance(s, FigureSettings) else s
+    if isinstance(s, (FigureSettings, GapsSettings)) and counts.seed + counts.graphs - 1 > SEED_MAX:
+        p.error(f"--seed {counts.seed} with --graphs {counts.graphs}: graph i uses seed + i, which must stay "
+                f"<= {SEED_MAX}; lower --seed or --graphs")
     if isinstance(s, FigureSettings):
         from jaxdc.core.memory import check_fits
 
         # the stacked float32 distance matrices and their survival probabilities, on the host and the device
-        instances = s.graphs * len(s.alphas)
-        needed = 4 * 4 * s.graphs * (s.nodes + 1) ** 2 + 8 * 4 * instances * (s.nodes + 1)
-        check_fits(needed, f"figure {s.figure} with --graphs {s.graphs} --nodes {s.nodes}",
+        e = s.experiment
+        instances = e.graphs * len(e.alphas)
+        needed = 4 * 4 * e.graphs * (e.nodes + 1) ** 2 + 8 * 4 * instances * (e.nodes + 1)
+        check_fits(needed, f"figure {s.figure} with --graphs {e.graphs} --nodes {e.nodes}",
                    "--graphs or --nodes")
     check_output_folder(s.out, "--out")
     if isinstance(s, PlanSettings) and s.draw:
@@ -261,57 +261,25 @@ def run_plan(s: PlanSettings) -> int:
 # ----------------------------------------------------------------------------- figures
 
 
-def _stored_experiment(path, config, force):
-    """The stored results at ``path`` if they exist, were made with ``config`` and ``force`` is off.
-
-    A stored file that cannot be read, is not JSON or lacks the summary rows is recomputed (said on stderr).
-    """
-    if not os.path.exists(path) or force:
-        return None
-    try:
-        with open(path) as f:
-            stored = json.load(f)
-    except (OSError, ValueError) as e:
-        print(f"{PROG}: stored results {path} cannot be read ({e}); recomputing", file=sys.stderr)
-        return None
-    if not isinstance(stored, dict) or stored.get("config") != config:
-        return None
-    if not isinstance(stored.get("rows"), list) or not isinstance(stored.get("wall_seconds"), (int, float)):
-        print(f"{PROG}: stored results {path} lack their rows; recomputing", file=sys.stderr)
-        return None
-    return stored
-
-
-def _compute_experiment(s: FigureSettings) -> dict:
-    from jaxdc.drp.experiment import run_experiment
-    from jaxdc.drp.parallel import run_parallel
-    from jaxdc.drp.summary import experiment_record
-
-    alphas = list(s.alphas)
-    t0 = time.perf_counter()
-    if s.workers > 1:
-        raw, timing = run_parallel(s.workers, s.rewards, s.graphs, s.nodes, alphas, s.base, s.seed, s.cache, s.quiet)
-    else:
-        raw, timing = run_experiment(s.rewards, s.graphs, s.nodes, alphas, s.base, s.seed, BUILDERS, CLUSTERINGS,
-                                     quiet=s.quiet)
-    return experiment_record(s.config, raw, timing, time.perf_counter() - t0, alphas)
+def _warn(message: str) -> None:
+    print(f"{PROG}: {message}", file=sys.stderr)
 
 
 def run_figure(s: FigureSettings) -> int:
-    from jaxdc.drp.summary import markdown_tables, rows_csv
+    from jaxdc.drp.analysis.summary import markdown_tables, rows_csv
     from jaxdc.viewer.curves import draw_curves
 
     if s.cache:
         enable_compilation_cache()
-    alphas = list(s.alphas)
-    data_path = os.path.join(s.out, f"experiment_{s.tag}.json")
-    stored = _stored_experiment(data_path, s.config, s.force)
+    alphas = list(s.experiment.alphas)
+    data_path = cache.experiment_path(s.out, s.experiment)
+    stored = None if s.force else cache.stored_experiment(data_path, s.experiment, warn=_warn)
     files = {}
     if stored is None:
-        stored = _compute_experiment(s)
+        stored = cache.compute_experiment(s.experiment, workers=s.workers, xla_cache=s.cache, quiet=s.quiet)
         files[data_path] = json_text({**stored, "provenance": provenance()}, indent=None)
         files[data_path[:-5] + ".csv"] = rows_csv(stored["rows"])
-    png = os.path.join(s.out, f"fig{s.figure.replace('.', '_')}_{s.tag}.png")
+    png = os.path.join(s.out, f"fig{s.figure.replace('.', '_')}_{s.experiment.tag}.png")
     buf = io.BytesIO()
     draw_curves(stored["rows"], alphas, BUILDERS, s.figure).savefig(buf, format="png", dpi=80)
     files[png] = buf.getvalue()
@@ -329,7 +297,7 @@ def run_figure(s: FigureSettings) -> int:
 
 
 def run_gaps(s: GapsSettings) -> int:
-    from jaxdc.drp.gaps import gap_graphs, optimality_gaps
+    from jaxdc.drp.analysis.gaps import gap_graphs, optimality_gaps
 
     rows = optimality_gaps(gap_graphs(s.graphs, s.nodes, s.size, list(s.alphas), s.base, s.seed), quiet=s.quiet)
     out = {"config": {"graphs": s.graphs, "nodes": s.nodes, "size": s.size, "alphas": list(s.alphas),
@@ -349,7 +317,7 @@ def _main(argv=None) -> int:
     args = p.parse_args(argv)
     s = settle(args)
     check_settings(p, s)
-    return {PlanSettings: run_plan, FigureSettings: run_figure, GapsSettings: run_gaps}[type(s)](s)
+    return args.run(s)
 
 
 def main(argv=None) -> int:

@@ -15,14 +15,20 @@ Set ``JAXDC_DEBUG=1`` to see the full traceback instead.
 :func:`exit_process` ends a command-line process with a status: after an
 interruption it flushes and leaves with ``os._exit``, because the interpreter's
 normal shutdown can crash while JAX's runtime threads are still busy.
+
+:func:`command_line` is the one way a program records its own command line
+(in its results files and metadata); :func:`with_subcommand` gives a program
+with subcommands its default one when a command line names none.
 """
 
 from __future__ import annotations
 
 import os
+import shlex
 import signal
 import sys
 import threading
+from collections.abc import Sequence
 
 #: Exit statuses: a usage or input error (as argparse), Ctrl-C, SIGTERM.
 EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 130, 143
@@ -34,6 +40,24 @@ class Terminated(KeyboardInterrupt):
 
 def _on_sigterm(signum, frame):
     raise Terminated()
+
+
+def command_line(prog: str, argv: Sequence[str] | None = None) -> str:
+    """The command line a results file records: ``prog`` (as is, e.g. ``"python -m eval.dcp"``), one space, then
+    ``argv`` (default ``sys.argv[1:]``) quoted by ``shlex.join``, so that it can be pasted back into a shell.
+
+    >>> command_line("python -m eval.dcp", ["--table", "4.3"])
+    'python -m eval.dcp --table 4.3'
+    """
+    return f"{prog} {shlex.join(sys.argv[1:] if argv is None else list(argv))}"
+
+
+def with_subcommand(argv: Sequence[str] | None, subcommands: Sequence[str], default: str) -> list[str]:
+    """``argv`` (default ``sys.argv[1:]``) as the parser of a program with subcommands reads it: unchanged when it
+    starts with one of ``subcommands``, else with ``default`` put in front (``-h`` too: the default subcommand's
+    help), so that a command line without a subcommand keeps meaning what it meant before."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    return argv if argv and argv[0] in subcommands else [default, *argv]
 
 
 def run(main, prog: str, argv=None) -> int:

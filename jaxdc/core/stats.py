@@ -9,7 +9,11 @@ so one function serves both; each problem passes its own outcome names.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from jaxdc.core.validate import check_choice
 
 #: How RPE treats an episode that consumed no energy (footnote 4 of Table 4.3 is silent).
 RPE_ZERO = ("exclude", "zero")
@@ -33,8 +37,7 @@ def reward_per_energy(reward, energy, rpe_zero: str = "exclude") -> np.ndarray:
     Episodes that used no energy are left out (``rpe_zero="exclude"``) or
     count as RPE 0 (``"zero"``).
     """
-    if rpe_zero not in RPE_ZERO:
-        raise ValueError(f"rpe_zero must be one of {RPE_ZERO}, got {rpe_zero!r}")
+    check_choice("rpe_zero", rpe_zero, RPE_ZERO)
     reward = np.asarray(reward, np.float64)
     energy = np.asarray(energy, np.float64)
     used = energy > 0
@@ -68,3 +71,29 @@ def episode_summary(final_states, outcomes, rpe_zero: str = "exclude", mask=None
         "outcomes": {name: int((outcome == i).sum()) for i, name in enumerate(outcomes) if name != "running"},
         "steps": mean_sd(steps),
     }
+
+
+def percent_increase(value: float | None, baseline: float | None) -> float | None:
+    """How much ``value`` exceeds ``baseline``, as a percentage of ``baseline``: ``100 (value - baseline) / baseline``.
+
+    The "Incr.%" of Tables 4.3-4.10 (caption of Table 4.3: "the difference between ENN's reward and
+    Safe-Reward's reward as a percentage of Safe-Reward's"), and every other relative gain jaxdc reports.
+    ``None`` when either is missing or NaN, or ``baseline`` is 0. (``100 (value / baseline - 1)`` is the same
+    number but may differ in the last bit; this form is the one the committed tables were written with.)
+    """
+    if value is None or baseline is None or baseline == 0 or math.isnan(value) or math.isnan(baseline):
+        return None
+    return 100.0 * (value - baseline) / baseline
+
+
+def format_number(x: float | None, digits: int = 2, *, missing: str = "—", signed: bool = False,
+                  suffix: str = "") -> str:
+    """``x`` with ``digits`` decimals (``signed``: always with its sign) and ``suffix``, as the tables and reports
+    print a statistic; ``missing`` for an undefined one (``None``, NaN or infinite).
+
+    >>> format_number(0.4567, 3), format_number(None), format_number(2.5, 1, signed=True, suffix=" pp")
+    ('0.457', '—', '+2.5 pp')
+    """
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return missing
+    return f"{x:{'+' if signed else ''}.{digits}f}{suffix}"

@@ -21,6 +21,14 @@ SEED_MAX = 2**32 - 1
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
+def check_choice(name: str, value, choices):
+    """``value`` if it is one of ``choices``, else a ``ValueError`` naming ``name`` and the choices as given
+    (``"builder must be one of ('gi', ...), got 'xx'"``): the one check of a setting with a fixed set of values."""
+    if value not in tuple(choices):
+        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+    return value
+
+
 def is_int(value, numpy: bool = True) -> bool:
     """Whether ``value`` is an ``int`` (with ``numpy``, also a NumPy integer), and not a ``bool``."""
     return not isinstance(value, bool) and isinstance(value, (int, np.integer) if numpy else int)

@@ -18,7 +18,7 @@ import numpy as np
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import RPE_ZERO, episode_summary  # noqa: F401  (RPE_ZERO: the public name)
-from jaxdc.core.validate import check_positive_int
+from jaxdc.core.validate import check_choice, check_positive_int
 from jaxdc.dcp import instances, navigators
 from jaxdc.dcp.env import DCP, OUTCOMES, EnvParams
 from jaxdc.dcp.planners import PlannerConfig
@@ -26,8 +26,7 @@ from jaxdc.dcp.planners import PlannerConfig
 
 def heuristic_policy(name: str, table, cfg: PlannerConfig = PlannerConfig()):
     """``policy(key, obs, state)`` for a navigator or planner name (see :data:`navigators.POLICIES`)."""
-    if name not in navigators.POLICIES:
-        raise ValueError(f"policy must be one of {navigators.POLICIES}, got {name!r}")
+    check_choice("policy", name, navigators.POLICIES)
 
     def policy(key, obs, state):
         return navigators.policy_action(name, state, table, cfg)
@@ -57,8 +56,7 @@ def evaluate_heuristic(
 ):
     """Final states of ``episodes`` episodes of heuristic policy ``name`` (jitted, batched); with per-episode maps
     (``params.maps``) each episode plans on its own map's table."""
-    if name not in navigators.POLICIES:
-        raise ValueError(f"policy must be one of {navigators.POLICIES}, got {name!r}")
+    check_choice("policy", name, navigators.POLICIES)
     if params.maps is not None:
         return _run_instance_heuristic(env, params, key, name, cfg, check_positive_int("episodes", episodes))
     return _run_heuristic(env, params, key, name, cfg, check_positive_int("episodes", episodes), path_risk)
@@ -121,10 +119,10 @@ class OptimalEvaluation(NamedTuple):
 def evaluate_optimal(env: DCP, params: EnvParams, key, episodes: int = 10_000) -> OptimalEvaluation:
     """Final states of the exact optimal policy of the single-item DCP (``total_reward=1``).
 
-    Solves the MDP by value iteration (:mod:`jaxdc.dcp.optimal`) and plays it
+    Solves the MDP by value iteration (:mod:`jaxdc.dcp.exact.optimal`) and plays it
     like any other policy.
     """
-    from jaxdc.dcp.optimal import expected_optimum, optimal_policy, solve_single_item
+    from jaxdc.dcp.exact.optimal import expected_optimum, optimal_policy, solve_single_item
 
     if env.total_reward != 1:
         raise ValueError(f"policy 'optimal' needs total_reward=1 (the single-item setting), got {env.total_reward}")

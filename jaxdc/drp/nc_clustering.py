@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdc.core.validate import check_choice
 from jaxdc.drp.evaluate import combine, evaluate_clusters, evaluate_parts, gi_trajectories, host_arrays
 from jaxdc.drp.tour_cache import TourCache
 from jaxdc.drp.tours import BUILDERS
@@ -200,8 +201,7 @@ def nc(criterion, D, beta, psi, gidx, alpha, progress=None, cache=True, resume=F
       ``member [I, n+1, n+1]`` bool: ``member[i, s]`` is the cluster in slot ``s``
       (all False for empty slots). Every node is in exactly one cluster.
     """
-    if criterion not in BUILDERS:
-        raise ValueError(f"builder must be one of {BUILDERS}, got {criterion!r}")
+    check_choice("builder", criterion, BUILDERS)
     D = jnp.asarray(D, jnp.float32)
     beta = jnp.asarray(beta, jnp.float32)
     psi = jnp.asarray(psi, jnp.float32)

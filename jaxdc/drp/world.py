@@ -26,6 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxdc.core.validate import check_choice
 from jaxdc.io import atomic_write, json_text
 
 #: The thesis' reward distributions (section 3.5): integer-uniform 4..6, 1..9, all 5.
@@ -115,10 +116,8 @@ def generate(seed: int, n: int = 100, rewards: str = "4-6", base: str = "centre"
     ``rewards`` is one of :data:`REWARD_SETTINGS`; ``base`` is ``corner`` (0, 0)
     or ``centre`` (size/2, size/2). Deterministic in ``seed``.
     """
-    if rewards not in REWARD_SETTINGS:
-        raise ValueError(f"rewards must be one of {sorted(REWARD_SETTINGS)}, got {rewards!r}")
-    if base not in BASE_LOCATIONS:
-        raise ValueError(f"base must be one of {BASE_LOCATIONS}, got {base!r}")
+    check_choice("rewards", rewards, sorted(REWARD_SETTINGS))
+    check_choice("base", base, BASE_LOCATIONS)
     if not (isinstance(n, numbers.Integral) and not isinstance(n, bool) and 1 <= n <= MAX_NODES):
         raise ValueError(f"n must be an integer in [1, {MAX_NODES}], got {n!r}")
     if not (isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and seed >= 0):
@@ -238,6 +237,7 @@ def to_dict(graph: Graph) -> dict:
 
 def load(path) -> Graph:
     """Read and validate a graph JSON file."""
+    # read leniently: a NaN or Infinity in the file is refused by validate(), which names the field (base[1])
     with open(path) as f:
         try:
             data = json.load(f)

@@ -6,7 +6,7 @@ gives ours minus the thesis in standard errors of the thesis' mean
 reproduce. A table with a learned row (ENN, the linear learner, EQN) also
 shows where its parameters came from and the thesis' incr.% columns (the
 learner's increment over each navigator, % of the navigator's mean) beside ours, and the row of the best
-shipped jaxdc learner (:mod:`jaxdc.dcp.best_learner`) compared with the thesis' learned row.
+shipped jaxdc learner (:mod:`jaxdc.dcp.analysis.best_learner`) compared with the thesis' learned row.
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ def dcp_table(payload: dict) -> str:
 
 
 def incr_table(incr: dict) -> str:
-    """The incr.% columns of Tables 4.3-4.10, thesis beside ours (``jaxdc.dcp.tables.incr_percent``)."""
+    """The incr.% columns of Tables 4.3-4.10, thesis beside ours (``jaxdc.core.stats.percent_increase``)."""
     lines = ["| learner's incr.% over | reward thesis | reward ours | energy thesis | energy ours | RPE thesis "
              "| RPE ours |", "|---|---|---|---|---|---|---|"]
     for name, cols in incr.items():

@@ -5,7 +5,7 @@ recipe), jaxdc's best number with the option that gives it, a verdict, and a
 link to the section below with the command that made it. Every cell is read
 from the stored results (``results/``), never typed in:
 
-* DRP, Figs. 3.1-3.5: the claims of section 3.5 (:mod:`jaxdc.drp.claims`) judged on the largest stored
+* DRP, Figs. 3.1-3.5: the claims of section 3.5 (:mod:`jaxdc.drp.analysis.claims`) judged on the largest stored
   experiment of each node-reward setting (``results/drp/experiment_*.json``).
 * DCP, Tables 4.1 and 4.3-4.10 (``results/dcp/table_*.json``): the navigators' rows, then the learned row and the
   best shipped learner. ``Δ/SE`` is ours minus the thesis in standard errors ``sd / sqrt(episodes)``;
@@ -22,8 +22,9 @@ import glob
 import os
 import re
 
+from jaxdc.core.stats import format_number
 from jaxdc.dcg.analysis.claims import STRONG_MARK
-from jaxdc.drp.claims import judge_claims, rows_by_key
+from jaxdc.drp.analysis.claims import judge_claims, rows_by_key
 from jaxdc.report.dcp_tables import delta_se
 from jaxdc.report.stored import read_json, reading, require_fields, table_files
 
@@ -45,10 +46,6 @@ def verdict(d) -> str:
 def anchor(title: str) -> str:
     """The GitHub anchor of a markdown heading (lower case, punctuation dropped, spaces to hyphens)."""
     return re.sub(r"[^\w\- ]", "", title.strip().lower()).replace(" ", "-")
-
-
-def _fmt(x, d=2) -> str:
-    return "—" if x is None else f"{x:.{d}f}"
 
 
 def _se(d) -> str:
@@ -79,9 +76,9 @@ def drp_rows(results_dir: str) -> list[list[str]]:
     rows = []
     for v in judge_claims(exps):
         word = {"yes": "reproduced", "no": "not reproduced", "partly": "partly", "n/a": "n/a"}[v.agrees]
-        rows.append([f"DRP Fig. {v.figure}", v.claim, v.ours, "—", word,
+        rows.append([f"DRP Fig. {v.source}", v.claim, v.ours, "—", word,
                      "[drp.md](drp.md#the-thesis-claims-beside-ours) `python -m eval.drp figure "
-                     f"{v.figure.split(',')[0]}`"])
+                     f"{v.source.split(',')[0]}`"])
     rows.append(["DRP", "(scale of the experiments judged)", scale, "", "", ""])
     return rows
 
@@ -131,10 +128,10 @@ def _dcp_table_rows(p: dict) -> list[list[str]]:
         cell_best, word_best = "—", ""
         if best:
             b_ours, _, b_d = _row_delta(p, best["row"], best.get("thesis_row") or learned)
-            cell_best = f"{_fmt(b_ours)}{_se(b_d)}: `{best['checkpoint']}`, {best['differs']}"
+            cell_best = f"{format_number(b_ours)}{_se(b_d)}: `{best['checkpoint']}`, {best['differs']}"
             word_best = f"; best: {verdict(b_d)}"
-        rows.append([f"DCP Table {p['table']}", f"{learned} reward {_fmt(thesis)}",
-                     f"{_fmt(ours)}{_se(d)}", cell_best, f"faithful: {verdict(d)}{word_best}", where])
+        rows.append([f"DCP Table {p['table']}", f"{learned} reward {format_number(thesis)}",
+                     f"{format_number(ours)}{_se(d)}", cell_best, f"faithful: {verdict(d)}{word_best}", where])
     return rows
 
 

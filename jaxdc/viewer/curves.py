@@ -18,7 +18,7 @@ _LABELS = {"mean": "normalised mean reward", "sd": "normalised SD", "pgc_over_nc
 def draw_curves(rows, alphas, builders, figure: str) -> Figure:
     """Figure ``figure`` (``"3.1"`` .. ``"3.5"``) of section 3.5 from the experiment's summary rows.
 
-    ``rows`` are :func:`jaxdc.drp.summary.summarise`'s; one line per builder
+    ``rows`` are :func:`jaxdc.drp.analysis.summary.summarise`'s; one line per builder
     over ``alphas`` in each panel (:data:`FIGURE_PANELS`), missing points left
     out. Drawn on its own Agg canvas (no pyplot state); returns the ``Figure``.
     """

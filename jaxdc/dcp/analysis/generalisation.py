@@ -14,7 +14,7 @@ A budget is *inside* when its maximum lies in the network's training range
 plays, on the same episode keys: the network; the four navigators of
 Algorithm 9 (the best of them is the yardstick); with ``optimum``, the
 network on one item against the exact single-item optimum
-(:mod:`jaxdc.dcp.optimal`, value iteration on that map and budget); and the
+(:mod:`jaxdc.dcp.exact.optimal`, value iteration on that map and budget); and the
 specialist, a shipped network trained in exactly that setting, where one
 exists. :func:`summarise` groups the ratios by source and inside/outside.
 """
@@ -33,7 +33,7 @@ from jaxdc.dcp import instances
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.evaluate import evaluate_heuristic, evaluate_learned
 from jaxdc.dcp.navigators import NAVIGATORS
-from jaxdc.dcp.optimal import expected_optimum, solve_single_item
+from jaxdc.dcp.exact.optimal import expected_optimum, solve_single_item
 
 #: The map sources of a generalisation grid, in report order.
 SOURCES = ("train", "held-out", "thesis")

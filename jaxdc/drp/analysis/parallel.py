@@ -4,7 +4,7 @@ Each worker process runs NC with its builders and the PGC plans with them, and
 compiles only their programs; the parent computes the PGC clusters (pure
 Python) meanwhile and sends them to every worker. The rewards are computed
 from the tours on the host (float64), so the results equal
-:func:`jaxdc.drp.experiment.run_experiment`'s in one process.
+:func:`jaxdc.drp.analysis.experiment.run_experiment`'s in one process.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import threading
 import sys
 import time
 
-from jaxdc.drp.experiment import experiment_arrays, pgc_plans, progress_units, run_experiment
+from jaxdc.drp.analysis.experiment import experiment_arrays, pgc_plans, progress_units, run_experiment
 from jaxdc.drp.solve import pgc_clusters
 from jaxdc.io import enable_compilation_cache
 
@@ -85,7 +85,7 @@ def _worker(task):
 
 def run_parallel(workers, rewards, graphs, nodes, alphas, base, seed, cache, quiet,
                  builders=None, clusterings=("nc", "pgc")):
-    """:func:`jaxdc.drp.experiment.run_experiment` split over ``workers`` processes: each takes a group of
+    """:func:`jaxdc.drp.analysis.experiment.run_experiment` split over ``workers`` processes: each takes a group of
     builders (:func:`builder_groups`) for NC and for the PGC plans. ``cache``: each worker turns on the
     persistent XLA compilation cache. Same ``(raw, timing)`` as the one-process experiment
     (tests/test_drp_parallel.py), ``raw`` sorted by key. On Ctrl-C (or SIGTERM) the worker processes are

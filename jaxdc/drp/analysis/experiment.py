@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -21,6 +22,28 @@ from jaxdc.drp.solve import graph_arrays, pgc_clusters, solve_instances
 FIGURE_REWARDS = {"3.1": "4-6", "3.2": "4-6", "3.3": "4-6", "3.4": "1-9", "3.5": "5"}
 #: The robot values of the figures: alpha = 0, 5, ..., 80.
 DEFAULT_ALPHAS = tuple(range(0, 85, 5))
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """The settings of one section 3.5 experiment: what its results are stored with, and reused for."""
+
+    rewards: str  #: the node-reward setting (:data:`FIGURE_REWARDS`)
+    graphs: int
+    nodes: int
+    alphas: tuple  #: the robot values, sorted, 0 included
+    base: str  #: "centre" or "corner"
+    seed: int  #: graph ``i`` is generated from ``seed + i``
+
+    def as_dict(self) -> dict:
+        """The settings as stored with the results (a stored run is reused only if they match)."""
+        return {"rewards": self.rewards, "graphs": self.graphs, "nodes": self.nodes, "alphas": list(self.alphas),
+                "base": self.base, "seed": self.seed}
+
+    @property
+    def tag(self) -> str:
+        """The part of the result files' names that tells experiments apart."""
+        return f"r{self.rewards}_g{self.graphs}_n{self.nodes}_{self.base}_s{self.seed}"
 
 
 def experiment_arrays(rewards, graphs, nodes, alphas, base, seed):

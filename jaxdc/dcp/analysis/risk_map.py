@@ -2,18 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import os
 
 import numpy as np
 
 from jaxdc.core import grid
-
-
-def _refuse_constant(name: str, path: str):
-    def refuse(constant):
-        raise ValueError(f"{name} {path!r}: {constant} is not a risk in [0, 1] (NaN and Infinity are refused)")
-    return refuse
+from jaxdc.io import read_json
 
 
 def load_risk_map(path: str, name: str = "risk map") -> np.ndarray:
@@ -30,20 +24,22 @@ def load_risk_map(path: str, name: str = "risk map") -> np.ndarray:
         raise ValueError(f"{name}: no such file {path!r}")
     if os.path.isdir(path):
         raise ValueError(f"{name}: {path!r} is a folder, not a .npy or JSON file")
-    try:
-        if path.endswith(".npy"):
+    if not path.endswith(".npy"):
+        try:
+            arr = read_json(path, hint="a risk map is an N x N nested list of risks in [0, 1]")
+        except ValueError as e:  # names the file; NaN and Infinity refused as strict JSON has neither
+            raise ValueError(f"{name}: {e}") from None
+    else:
+        try:
             arr = np.load(path, allow_pickle=False)
             if not isinstance(arr, np.ndarray):
                 raise ValueError("not a single array")
             if arr.dtype.kind not in "biuf":
                 raise ValueError(f"{name} {path!r}: must hold real numbers, got dtype {arr.dtype}")
-        else:
-            with open(path) as f:
-                arr = json.load(f, parse_constant=_refuse_constant(name, path))
-    except (ValueError, OSError, EOFError, UnicodeDecodeError) as e:
-        if str(e).startswith(name):
-            raise ValueError(str(e)) from None
-        raise ValueError(f"{name}: cannot read {path!r} as .npy or JSON: {e}") from None
+        except (ValueError, OSError, EOFError, UnicodeDecodeError) as e:
+            if str(e).startswith(name):
+                raise ValueError(str(e)) from None
+            raise ValueError(f"{name}: cannot read {path!r} as .npy: {e}") from None
     try:
         return grid.validate_risk_map(arr)
     except (TypeError, ValueError) as e:

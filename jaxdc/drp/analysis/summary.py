@@ -18,7 +18,7 @@ ROW_FIELDS = ("clustering", "builder", "alpha", "mean", "sd", "pgc_over_nc")
 def summarise(raw, alphas):
     """Normalised mean and SD (section 3.5.1): divided by the mean reward at alpha = 0.
 
-    ``raw[(clustering, builder)]`` is ``[graphs, len(alphas)]`` (:func:`jaxdc.drp.experiment.run_experiment`);
+    ``raw[(clustering, builder)]`` is ``[graphs, len(alphas)]`` (:func:`jaxdc.drp.analysis.experiment.run_experiment`);
     the normaliser is the first entry's mean at alpha = 0. Returns ``(normaliser, rows)``, one row per
     ``(clustering, builder, alpha)``; a PGC row also has ``pgc_over_nc`` when NC ran with its builder.
     When the normaliser is not a positive finite number, ``mean`` and ``sd`` are ``None`` and the row's

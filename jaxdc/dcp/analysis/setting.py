@@ -52,7 +52,7 @@ class EnvOptions:
 
 def evaluation_setting(spec=None, learned=None, *, risk=None, total_reward=None, energy=None, max_steps=None,
                        grid_size=None, risk_map: np.ndarray | None = None) -> Setting:
-    """The :class:`Setting` of an evaluation of table ``spec`` (a :class:`jaxdc.dcp.tables.TableSpec`) or not.
+    """The :class:`Setting` of an evaluation of table ``spec`` (a :class:`jaxdc.dcp.analysis.tables.TableSpec`) or not.
 
     ``risk``, ``total_reward`` and ``energy`` count only without ``spec``;
     ``max_steps`` and ``grid_size`` always win; a ``risk_map`` replaces the

@@ -36,6 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdc.core import grid
+from jaxdc.core.validate import check_choice
 from jaxdc.dcp.env import STARTS
 
 
@@ -203,8 +204,7 @@ def expected_optimum(sol: OptimalSolution, items_on_base: bool = True, start: st
     base (``"base"``), always with ``energy = init_energy`` (also in the base),
     as in ``reset_env``. This is the best achievable "Reward Avg." of Table 4.8.
     """
-    if start not in STARTS:
-        raise ValueError(f"start must be one of {STARTS}, got {start!r}")
+    check_choice("start", start, STARTS)
     cells = sol.values.shape[0]
     v = sol.values[:, sol.init_energy, :]  # [agent, item]
     items = np.arange(0 if items_on_base else 1, cells)

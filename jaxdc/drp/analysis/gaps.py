@@ -6,7 +6,8 @@ import sys
 
 import numpy as np
 
-from jaxdc.drp import exact, world
+from jaxdc.drp import world
+from jaxdc.drp.exact import subset_dp
 from jaxdc.drp.solve import CLUSTERINGS, graph_arrays, solve_instances
 from jaxdc.drp.tours import BUILDERS
 
@@ -20,7 +21,7 @@ def gap_graphs(graphs, nodes, size, alphas, base, seed):
 
 
 def optimality_gaps(graphs, quiet=False):
-    """Each heuristic's reward over the optimum (:func:`jaxdc.drp.exact.solve`) on ``graphs``.
+    """Each heuristic's reward over the optimum (:func:`jaxdc.drp.exact.subset_dp.solve`) on ``graphs``.
 
     Returns one row per (clustering, builder): the mean and worst ratio, the share of graphs solved
     optimally (ratio above ``1 - 1e-4``) and the number of graphs compared (those with an optimum above 0).
@@ -29,7 +30,7 @@ def optimality_gaps(graphs, quiet=False):
     from tqdm import tqdm
 
     D, beta, psi = graph_arrays(graphs)
-    opt = np.asarray([exact.solve(np.asarray(D[i]), np.asarray(beta[i]), 0.99)[0]
+    opt = np.asarray([subset_dp.solve(np.asarray(D[i]), np.asarray(beta[i]), 0.99)[0]
                       for i in tqdm(range(len(graphs)), desc="exact", file=sys.stderr, disable=quiet)])
     gidx = np.arange(len(graphs))
     al = np.asarray([g.alpha for g in graphs])

@@ -1,26 +1,22 @@
 """The written results of a thesis table (section 4.5): the JSON record and the markdown, thesis beside ours.
 
-A table's rows (:mod:`jaxdc.dcp.rows`) and Incr.% columns
-(:func:`jaxdc.dcp.tables.incr_rows`) become ``table_<T>.json`` (the command,
+A table's rows (:mod:`jaxdc.dcp.analysis.rows`) and Incr.% columns
+(:func:`jaxdc.dcp.analysis.tables.incr_rows`) become ``table_<T>.json`` (the command,
 the thesis' numbers, ours, the learned row's provenance) and
 ``table_<T>.md``; the markdown is also what ``python -m eval.dcp`` prints.
 """
 
 from __future__ import annotations
 
-import math
 import os
 
-from jaxdc.dcp.tables import COLUMNS
+from jaxdc.core.stats import format_number
+from jaxdc.dcp.analysis.tables import COLUMNS
 
 
-def _fmt(x, digits):
-    """``x`` with ``digits`` decimals; a dash for an undefined value (``None``, NaN or infinite)."""
-    return "—" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.{digits}f}"
-
-
-def markdown_table(spec, rows: dict, incr: dict | None = None) -> str:
-    """Mean ± SD of reward, energy and RPE per row (thesis beside ours; ``spec=None``: ours only), then Incr.%.
+def markdown_table(spec, rows: dict, incr: dict | None = None, note: str | None = None) -> str:
+    """Mean ± SD of reward, energy and RPE per row (thesis beside ours; ``spec=None``: ours only), then ``note``
+    (a paragraph under the table: :func:`best_markdown`), then Incr.%.
 
     An undefined statistic (mean ``None``: RPE when no episode consumed energy) is a dash.
     """
@@ -32,11 +28,14 @@ def markdown_table(spec, rows: dict, incr: dict | None = None) -> str:
         cells = [name]
         for col, i in COLUMNS:
             d = 3 if col == "rpe" else 2
-            cells.append(f"{_fmt(th[i], d)} ± {_fmt(th[i + 1], d)}" if th[i] is not None else "—")
-            cells.append(f"{_fmt(s[col]['mean'], d)} ± {_fmt(s[col]['sd'], d)}" if s[col]["mean"] is not None
+            cells.append(f"{format_number(th[i], d)} ± {format_number(th[i + 1], d)}" if th[i] is not None
                          else "—")
+            mean, sd = s[col]["mean"], s[col]["sd"]
+            cells.append(f"{format_number(mean, d)} ± {format_number(sd, d)}" if mean is not None else "—")
         cells.append(", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v))
         lines.append("| " + " | ".join(cells) + " |")
+    if note:
+        lines += ["", note]
     if incr:
         lines += ["", incr_markdown(incr)]
     return "\n".join(lines)
@@ -47,7 +46,7 @@ def incr_markdown(incr: dict) -> str:
     lines = ["| incr.% over | reward (thesis) | reward (ours) | energy (thesis) | energy (ours) | RPE (thesis) "
              "| RPE (ours) |", "|" + "---|" * 7]
     for name, cols in incr.items():
-        cells = [name] + [_fmt(v, 2) for col, _ in COLUMNS for v in cols[col]]
+        cells = [name] + [format_number(v, 2) for col, _ in COLUMNS for v in cols[col]]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -71,8 +70,8 @@ def learned_info(learned) -> dict:
 
 
 def best_info(best) -> dict | None:
-    """What the results JSON says about the best row (:mod:`jaxdc.dcp.best_learner`): its row, the thesis row it
-    is compared with, the shipped name, source, how its recipe differs, its training setting, greedy play."""
+    """What the results JSON says about the best row (:mod:`jaxdc.dcp.analysis.best_learner`): its row, the thesis
+    row it is compared with, the shipped name, source, how its recipe differs, its training setting, greedy play."""
     if best is None:
         return None
     c, row = best

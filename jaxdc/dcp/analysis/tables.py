@@ -3,14 +3,16 @@
 Each :class:`TableSpec` holds the environment setting of one table and the
 thesis' rows, ``{policy: (reward avg, reward sd, energy avg, energy sd, rpe avg, rpe sd)}``
 (Table 4.1 reports reward only; missing values are ``None``).
-:func:`incr_percent` is the tables' "Incr.%" column and :func:`incr_rows` that
-column for every navigator of a table, thesis beside ours.
+:func:`incr_rows` is the tables' "Incr.%" column (:func:`jaxdc.core.stats.percent_increase`) for every
+navigator of a table, thesis beside ours.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+
+from jaxdc.core.stats import percent_increase
 
 INF = math.inf
 
@@ -30,19 +32,6 @@ class TableSpec:
         return tuple(p for p in self.rows if p not in self.learned)
 
 
-def incr_percent(learner: float | None, other: float | None) -> float | None:
-    """The "Incr.%" of Tables 4.3-4.10: the learner's increment over ``other`` as a percentage of ``other``.
-
-    Caption of Table 4.3: "Safe-Reward's reward incr.% is the difference
-    between ENN's reward and Safe-Reward's reward as a percentage of
-    Safe-Reward's", i.e. ``100 (learner - other) / other``. ``None`` when a
-    value is missing, NaN or ``other`` is 0.
-    """
-    if learner is None or other is None or other == 0 or math.isnan(learner) or math.isnan(other):
-        return None
-    return 100.0 * (learner - other) / other
-
-
 #: The columns of Tables 4.3-4.10 as (summary key, index of the mean in a thesis row).
 COLUMNS = (("reward", 0), ("energy", 2), ("rpe", 4))
 
@@ -58,8 +47,8 @@ def incr_rows(spec: TableSpec, rows: dict, learner: str | None) -> dict:
     out = {}
     for name in spec.heuristic_rows:
         th_l, th_n = spec.rows.get(learner), spec.rows.get(name)
-        out[name] = {col: [incr_percent(th_l[i], th_n[i]) if th_l and th_n else None,
-                           incr_percent(rows[learner][col]["mean"], rows[name][col]["mean"])]
+        out[name] = {col: [percent_increase(th_l[i], th_n[i]) if th_l and th_n else None,
+                           percent_increase(rows[learner][col]["mean"], rows[name][col]["mean"])]
                      for col, i in COLUMNS}
     return out
 

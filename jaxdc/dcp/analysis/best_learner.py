@@ -1,7 +1,7 @@
 """The best shipped jaxdc learner of a thesis table, shown beside the table's faithful learned row.
 
 Beyond the thesis: besides the networks trained with the thesis' recipe
-(:mod:`jaxdc.dcp.table_learner`), jaxdc ships stronger learners of the same
+(:mod:`jaxdc.dcp.analysis.table_learner`), jaxdc ships stronger learners of the same
 network (longer training, the PPO-style option, other training
 distributions; ``jaxdc/training/ship.py``). Which tables each may play is
 data: the ``tables`` field of its metadata names them, followed by
@@ -25,7 +25,7 @@ import re
 
 from jaxdc import pretrained
 from jaxdc.dcp import learned as learned_lib
-from jaxdc.dcp.table_learner import check_learner
+from jaxdc.dcp.analysis.table_learner import check_learner
 
 #: The mark in a shipped network's ``tables`` metadata that it goes beyond the thesis' recipe.
 BEYOND = re.compile(r"\(beyond the thesis:\s*(?P<differs>[^)]*)\)")

@@ -4,7 +4,7 @@ The thesis prints its DRP results as curves without numbers; what can be
 compared are the statements of its text (sections 3.5.1-3.5.3). Each
 :class:`DrpClaim` names its figure, its text, the experiments it reads (by
 node-reward setting, :data:`jaxdc.drp.world.REWARD_SETTINGS`) and a *judge*
-that reads their summary rows (:func:`jaxdc.drp.summary.summarise`) and
+that reads their summary rows (:func:`jaxdc.drp.analysis.summary.summarise`) and
 returns what was measured and whether the claim holds. :func:`judge_claims`
 evaluates them all; a claim whose experiment is missing is ``"n/a"``.
 
@@ -19,6 +19,8 @@ from __future__ import annotations
 import dataclasses
 from typing import Callable, NamedTuple
 
+from jaxdc.core.claims import Verdict, agreement
+
 #: The builders' groups in the thesis' order (section 3.5.1: GI, TL, LPG nearly identical; GML, NG nearly so).
 ORDER_GROUPS = (("gi", "tl", "lpg"), ("osa",), ("gml", "ng"))
 #: The robot values at which the order is judged (section 3.5.1's figure, below the range where few robots go).
@@ -28,19 +30,11 @@ GOOD_BUILDERS = ("gi", "tl", "lpg")
 
 
 class Judged(NamedTuple):
-    """What a claim's judge read: the text shown as "ours" and the verdict (``"yes"``/``"no"``/``"partly"``)."""
+    """What a claim's judge read: the text shown as "ours" and the verdict (one of
+    :data:`jaxdc.core.claims.AGREES`); :func:`judge_claims` turns it into a :class:`jaxdc.core.claims.Verdict`."""
 
     ours: str
     agrees: str
-
-
-class Verdict(NamedTuple):
-    """One judged claim."""
-
-    figure: str  # the thesis figure(s)
-    claim: str  # the claim as the thesis states it
-    ours: str  # what we measured
-    agrees: str  # "yes", "no", "partly" or "n/a" (an experiment is missing)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,7 +67,7 @@ def _order_holds(rows, clustering) -> Judged:
                 break
     at20 = " > ".join("≈".join(f"{_mean(rows, clustering, b, 20):.3f}" for b in g) for g in ORDER_GROUPS)
     where = "at every α = 10-40" if not failed else f"fails at α = {', '.join(map(str, failed))}"
-    return Judged(f"GI≈TL≈LPG > OSA > GML≈NG, {where} (α = 20: {at20})", "no" if failed else "yes")
+    return Judged(f"GI≈TL≈LPG > OSA > GML≈NG, {where} (α = 20: {at20})", agreement(not failed))
 
 
 def _ratio(rows, b, a):
@@ -87,7 +81,7 @@ def _pgc_above_08(rows) -> Judged:
     if not alphas or None in ratios:
         return Judged("no PGC/NC ratio below α = 30", "n/a")
     return Judged(f"GI, TL, LPG at α = {alphas[0]}-{alphas[-1]}: {min(ratios):.2f}-{max(ratios):.2f}",
-                  "yes" if min(ratios) > 0.8 else "no")
+                  agreement(min(ratios) > 0.8))
 
 
 def _pgc_about_04(rows) -> Judged:
@@ -95,7 +89,7 @@ def _pgc_about_04(rows) -> Judged:
     if None in ratios:
         return Judged("no PGC/NC ratio at α = 60", "n/a")
     shown = " / ".join(f"{r:.2f}" for r in ratios)
-    return Judged(f"GI / TL / LPG at α = 60: {shown}", "yes" if all(abs(r - 0.4) <= 0.1 for r in ratios) else "no")
+    return Judged(f"GI / TL / LPG at α = 60: {shown}", agreement(all(abs(r - 0.4) <= 0.1 for r in ratios)))
 
 
 def _spread(rows, a=20):
@@ -109,7 +103,7 @@ def _variance_spread(by_rewards) -> Judged:
     if None in s.values():
         return Judged("a GI or NG mean is missing or zero at α = 20", "n/a")
     shown = f"GI/NG under NC at α = 20: {s['1-9']:.2f} (1..9), {s['4-6']:.2f} (4..6), {s['5']:.2f} (5)"
-    return Judged(shown, "yes" if s["1-9"] > s["4-6"] > s["5"] else "no")
+    return Judged(shown, agreement(s["1-9"] > s["4-6"] > s["5"]))
 
 
 def _pgc_better_for_variance(by_rewards) -> Judged:
@@ -120,7 +114,7 @@ def _pgc_better_for_variance(by_rewards) -> Judged:
     wide, others = min(r["1-9"]), max(r["4-6"] + r["5"])
     shown = (f"GI/TL/LPG PGC/NC at α = 60: {min(r['1-9']):.2f}-{max(r['1-9']):.2f} (1..9) against "
              f"{min(r['4-6'] + r['5']):.2f}-{others:.2f} (4..6 and 5)")
-    return Judged(shown, "yes" if wide > others else "no")
+    return Judged(shown, agreement(wide > others))
 
 
 def _sd_grows(rows) -> Judged:
@@ -131,7 +125,7 @@ def _sd_grows(rows) -> Judged:
     lo, hi = rel(10), rel(60)
     if lo is None or hi is None:
         return Judged("GI under NC at α = 10 or 60 is missing", "n/a")
-    return Judged(f"SD / mean of GI under NC: {lo:.3f} at α = 10, {hi:.3f} at α = 60", "yes" if hi > lo else "no")
+    return Judged(f"SD / mean of GI under NC: {lo:.3f} at α = 10, {hi:.3f} at α = 60", agreement(hi > lo))
 
 
 def _one(judge, clustering=None):
@@ -167,8 +161,8 @@ def rows_by_key(record: dict) -> dict:
 
 
 def judge_claims(experiments: dict) -> list[Verdict]:
-    """Every claim of :data:`CLAIMS` judged on ``experiments`` (node-reward setting -> stored experiment record);
-    ``"n/a"`` where an experiment a claim reads is missing."""
+    """Every claim of :data:`CLAIMS` judged on ``experiments`` (node-reward setting -> stored experiment record),
+    with the claim's figure(s) as the verdict's ``source``; ``"n/a"`` where an experiment a claim reads is missing."""
     out = []
     for claim in CLAIMS:
         if any(k not in experiments for k in claim.rewards):
