@@ -115,3 +115,14 @@ def test_batched_auto_reset_with_per_environment_params_and_nested_vmap():
     for s in range(2):
         one = inner(keys2[s], jax.tree_util.tree_map(lambda x: x[s], state2), action2[s], params)
         chex.assert_trees_all_equal(jax.tree_util.tree_map(lambda x: x[s], nested), one)
+
+
+def test_reset_chunk_is_part_of_the_static_key():
+    """``reset_chunk`` changes the compiled auto-reset, so environments that differ in it neither compare nor hash
+    equal (they are static arguments of jitted functions)."""
+    a, b = DCP(grid_size=4, total_reward=3), DCP(grid_size=4, total_reward=3)
+    assert a == b and hash(a) == hash(b)
+    b.reset_chunk = 2
+    assert a != b and hash(a) != hash(b)
+    a.reset_chunk = 2
+    assert a == b and hash(a) == hash(b)

@@ -128,7 +128,7 @@ class TrainState:
     params: Any
     opt_state: Any
     env_state: Any  # batched [num_envs] environment states
-    obs: jax.Array  # [num_envs, N, N, 2]
+    obs: jax.Array  # [num_envs, N, N, C]: C = 2 for the DCP, 2 + k for the DCG with its history planes
     key: jax.Array
     update: jax.Array  # int32, updates done so far
 

@@ -22,7 +22,7 @@ stacked channels-last as ``[N, N, 2]``: ``M^item`` (item rewards) and
 
 from __future__ import annotations
 
-import math
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -31,7 +31,8 @@ from flax import struct
 
 from jaxdc.core import grid
 from jaxdc.core.energy import ENERGY_METRICS, check_budget, energy_used, observed_energy, observed_energy_bound, step_energy
-from jaxdc.core.env import Environment
+from jaxdc.core.env import Environment, Transition
+from jaxdc.core.scene import Scene
 from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, running_count, uniform_index
 from jaxdc.core.validate import INT32_MAX, check_int, check_positive_int, is_int
 
@@ -102,6 +103,10 @@ class DCP(Environment[EnvState, EnvParams]):
         one network that plays Tables 4.3, 4.6 and 4.8; docs/learning.md).
     """
 
+    outcomes: tuple[str, ...] = OUTCOMES
+    state_type = EnvState
+    params_type = EnvParams
+
     def __init__(
         self,
         grid_size: int = 8,
@@ -147,7 +152,7 @@ class DCP(Environment[EnvState, EnvParams]):
         )
 
     # -- parameters -------------------------------------------------------------------
-    def make_params(self, risk="high", energy=(8.0, 16.0), max_steps: int = 1000) -> EnvParams:
+    def make_params(self, risk: Any = "high", energy: Any = (8.0, 16.0), max_steps: int = 1000) -> EnvParams:
         """Validated :class:`EnvParams`.
 
         Args:
@@ -169,7 +174,7 @@ class DCP(Environment[EnvState, EnvParams]):
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, 2)
 
-    def observation_bounds(self, params: EnvParams):
+    def observation_bounds(self, params: EnvParams) -> tuple[float, np.ndarray]:
         """Items in ``[0, total_reward]``; the energy plane in ``[0, observed_energy_bound(...)]`` (the budget, or
         ``max_steps`` for an unlimited one)."""
         high = np.zeros(self.observation_shape(params), np.float32)
@@ -178,7 +183,7 @@ class DCP(Environment[EnvState, EnvParams]):
         return 0.0, high
 
     # -- dynamics ---------------------------------------------------------------------
-    def reset_env(self, key, params: EnvParams):
+    def reset_env(self, key: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
         """A random initial state (section 4.3): multinomial items, then the start cell."""
         n = self.grid_size
         k_items, k_start = jax.random.split(key)
@@ -213,7 +218,7 @@ class DCP(Environment[EnvState, EnvParams]):
         )
         return self.observe(state, params), state
 
-    def step_env(self, key, state: EnvState, action, params: EnvParams):
+    def step_env(self, key: jax.Array, state: EnvState, action: Any, params: EnvParams) -> Transition:
         """One transition of section 4.3, without auto-reset."""
         n = self.grid_size
         action, invalid = grid.clip_action(action)
@@ -256,7 +261,7 @@ class DCP(Environment[EnvState, EnvParams]):
         }
         return self.observe(new_state, params), new_state, reward, terminated, truncated, info
 
-    def observe(self, state: EnvState, params: EnvParams):
+    def observe(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The two planes ``[N, N, 2]``: item rewards and the energy at the agent's cell (section 4.5.1; an
         unlimited budget shows as ``max_steps``, :func:`~jaxdc.core.energy.observed_energy`)."""
         n = self.grid_size
@@ -269,15 +274,22 @@ class DCP(Environment[EnvState, EnvParams]):
         """Text grid (:func:`render_ansi`): ``A`` agent, ``B`` base, item digits, ``.`` empty, then a status line."""
         return render_ansi(state, params)
 
+    def scene(self, state: EnvState, params: EnvParams) -> Scene:
+        """The frame of section 4.3 (:func:`jaxdc.viewer.render_frame`): the risk map with its values (Fig. 4.1b),
+        the items, the agent with its energy."""
+        return Scene(items=np.asarray(state.items), agent=np.asarray(state.pos), energy=state.energy,
+                     max_energy=params.max_energy, reward=state.ep_reward, step=int(state.time),
+                     outcome=OUTCOMES[int(state.outcome)], risk=np.asarray(params.risk))
 
-def _fmt(x) -> str:
+
+def _fmt(x: Any) -> str:
     x = float(x)
     if np.isinf(x):
         return "inf"
     return str(int(x)) if x == int(x) else f"{x:g}"
 
 
-def render_ansi(state, params) -> str:
+def render_ansi(state: Any, params: Any) -> str:
     """Text grid of a DCP-like state (outside jit): ``B`` base, ``A`` agent, item reward digits
     (``*`` above 9; ``+`` below 1), ``.`` empty; one row per line, then a status line."""
     items = np.asarray(state.items)
@@ -307,7 +319,7 @@ def render_ansi(state, params) -> str:
     return "\n".join(rows) + "\n"
 
 
-def check_energy(energy) -> tuple[float, float]:
+def check_energy(energy: Any) -> tuple[float, float]:
     """Validate ``(initial, maximum)`` energy: ``0 < initial <= maximum``, each finite (at most
     :data:`~jaxdc.core.energy.MAX_FINITE_ENERGY`) or ``inf``."""
     try:

@@ -18,111 +18,68 @@ seed from gymnasium's ``np_random``.
 
 ``make_dcp`` / ``make_dcp_vector`` are the entry points registered as
 ``"jaxdc/DCP-v0"``, ``make_dcg`` / ``make_dcg_vector`` those of
-``"jaxdc/DCG-v0"`` (see :mod:`jaxdc`). ``render_mode="ansi"``: the environment's
-``render_ansi(state, params)`` method (DCP and DCG), for others the DCP's text
-(:func:`render_ansi`, :func:`jaxdc.dcp.env.render_ansi`). ``render_mode="rgb_array"``
-(DCP and DCG): a ``uint8 [H, W, 3]`` picture by :func:`jaxdc.viewer.render_frame` (risk field, base,
-agent and energy, items, opponent, fog).
+``"jaxdc/DCG-v0"`` (see :mod:`jaxdc`). The adapters know no problem: they call
+the environment's hooks (:class:`~jaxdc.core.env.Environment`). ``render_mode="ansi"``:
+its ``render_ansi(state, params)``; ``render_mode="rgb_array"``: a ``uint8 [H, W, 3]``
+picture of its ``scene(state, params)`` by :func:`jaxdc.viewer.render_frame` (for the
+DCP and DCG: risk field, base, agent and energy, items, opponent, fog); ``info["outcome"]``:
+a name from its ``outcomes``. The compiled steps are those of :mod:`jaxdc.wrappers.batched`.
 """
 
 from __future__ import annotations
 
-import sys
+from collections.abc import Callable, Sequence
 from functools import partial
 from typing import Any
 
 import gymnasium
 import jax
-import jax.numpy as jnp
 import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from jaxdc.core.env import Environment
+from jaxdc.core.env import Environment, writes
 from jaxdc.core.validate import check_positive_int, check_seed
-from jaxdc.dcp.env import render_ansi
+from jaxdc.wrappers import batched
 
 RENDER_MODES = ("ansi", "rgb_array")
 
 __all__ = ["JaxToGymnasium", "JaxVectorEnv", "make_dcp", "make_dcp_vector", "make_dcg", "make_dcg_vector",
-           "render_ansi", "RENDER_MODES"]
+           "RENDER_MODES"]
 
 
-def _check_render_mode(render_mode, env=None):
+def _check_render_mode(render_mode: str | None, env: Environment | None = None) -> str | None:
     if render_mode is not None and render_mode not in RENDER_MODES:
         raise ValueError(f"render_mode must be None or one of {list(RENDER_MODES)}, got {render_mode!r}")
-    if render_mode == "rgb_array" and env is not None:
-        from jaxdc.dcg.env import DCG
-        from jaxdc.dcp.env import DCP
-
-        if not isinstance(env, (DCP, DCG)):
-            raise ValueError(f"render_mode='rgb_array' draws DCP and DCG states only, not {type(env).__name__}; "
-                             f"use render_mode='ansi'")
+    if env is not None and render_mode is not None:
+        hook = _HOOKS[render_mode]
+        if not writes(env, hook):
+            other = [m for m in RENDER_MODES if m != render_mode and writes(env, _HOOKS[m])]
+            raise ValueError(f"render_mode={render_mode!r} needs an environment that writes {hook}(state, params) "
+                             f"(as the DCP and DCG do); {type(env).__name__} does not"
+                             + (f"; use render_mode={other[0]!r}" if other else ""))
     return render_mode
 
 
-def _outcome_names(env, outcome_names):
+#: The Environment hook each render mode calls.
+_HOOKS = {"ansi": "render_ansi", "rgb_array": "scene"}
+
+
+def _outcome_names(env: Environment, outcome_names: Sequence[str] | None) -> tuple[str, ...] | None:
     if outcome_names is not None:
         return tuple(outcome_names)
-    names = getattr(env, "OUTCOMES", None)
-    if names is None:
-        names = getattr(sys.modules.get(type(env).__module__), "OUTCOMES", None)
-    return None if names is None else tuple(names)
+    return None if env.outcomes is None else tuple(env.outcomes)
 
 
-def _spaces(env: Environment, params, observation_space=None):
-    """gymnasium spaces from the environment's own (finite) ``observation_space(params)``; an environment
-    that does not bound its observations (``observation_bounds`` not written) gets an unbounded Box."""
-    if observation_space is None:
-        shape = tuple(int(s) for s in env.observation_shape(params))
-        try:
-            box = env.observation_space(params)
-            low, high = box.low, box.high
-        except NotImplementedError:
-            low, high = np.full(shape, -np.inf, np.float32), np.full(shape, np.inf, np.float32)
-        observation_space = spaces.Box(low=low, high=high, shape=shape, dtype=np.float32)
-    return observation_space, spaces.Discrete(int(env.num_actions))
-
-
-# One compiled function per (env config[, batch size]), shared by all wrappers:
-# the env is a static argument (DCP defines __eq__/__hash__ on its config), the
-# params a traced pytree, so reset/step never retrace after the first call.
-@partial(jax.jit, static_argnums=0)
-def _reset_one(env, key, params):
-    key, sub = jax.random.split(key)
-    obs, state = env.reset_env(sub, params)
-    return key, obs, state
-
-
-@partial(jax.jit, static_argnums=0)
-def _step_one(env, key, state, action, params):
-    key, sub = jax.random.split(key)
-    return (key,) + tuple(env.step_env(sub, state, action, params))
-
-
-@partial(jax.jit, static_argnums=(0, 1))
-def _reset_batch(env, num_envs, key, params):
-    key, sub = jax.random.split(key)
-    obs, state = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(sub, num_envs), params)
-    return key, obs, state
-
-
-@partial(jax.jit, static_argnums=(0, 1))
-def _step_batch(env, num_envs, key, state, actions, params):
-    key, sub = jax.random.split(key)
-    out = jax.vmap(env.step, in_axes=(0, 0, 0, None))(jax.random.split(sub, num_envs), state, actions, params)
-    return (key,) + tuple(out)
-
-
-def _renderer(env, render_mode: str = "ansi"):
-    """``render(state, params)`` for ``render_mode``: :func:`jaxdc.viewer.render_frame` for ``"rgb_array"``;
-    for ``"ansi"`` the env's own ``render_ansi(state, params)`` where it has one, else :func:`render_ansi`."""
+def _renderer(env: Environment, render_mode: str = "ansi") -> Callable[[Any, Any], Any]:
+    """``render(state, params)`` for ``render_mode``: :func:`jaxdc.viewer.render_frame` (which draws the env's
+    :meth:`~jaxdc.core.env.Environment.scene`) for ``"rgb_array"``, the env's ``render_ansi`` for ``"ansi"``."""
     if render_mode == "rgb_array":
         from jaxdc.viewer import render_frame
 
         return lambda state, params: render_frame(env, params, state)
-    return getattr(env, "render_ansi", None) or render_ansi
+    return env.render_ansi
 
 
 def _check_action(action, num_actions: int) -> np.int32:
@@ -173,28 +130,28 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
     Args:
       env: the functional environment.
       params: its ``EnvParams`` (default: ``env.default_params``).
-      render_mode: ``None``, ``"ansi"`` (text) or ``"rgb_array"`` (DCP/DCG: ``uint8 [H, W, 3]``).
+      render_mode: ``None``, ``"ansi"`` (text) or ``"rgb_array"`` (``uint8 [H, W, 3]``; environments that
+        write ``scene``, as the DCP and DCG do).
       outcome_names: names for ``info["outcome"]`` indices (default: the
-        env's ``OUTCOMES``, looked up on the env or its module); the index
-        stays in ``info["outcome_index"]``.
-      observation_space: override of the default ``Box`` (for the DCP's
-        ``[N, N, 2]`` planes: item plane in ``[0, inf)``, agent plane in
-        ``[-1, inf)``; otherwise unbounded).
+        env's ``outcomes``); the index stays in ``info["outcome_index"]``.
+      observation_space: override of the default ``Box`` (the env's own
+        ``observation_space(params)``; unbounded where the env does not bound
+        its observations).
     """
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": 4}
 
-    def __init__(self, env: Environment, params=None, render_mode: str | None = None, outcome_names=None,
-                 observation_space: spaces.Space | None = None):
+    def __init__(self, env: Environment, params: Any = None, render_mode: str | None = None,
+                 outcome_names: Sequence[str] | None = None, observation_space: spaces.Space | None = None) -> None:
         self.render_mode = _check_render_mode(render_mode, env)
         self.env = env
         self.params = env.default_params if params is None else params
-        self.observation_space, self.action_space = _spaces(env, self.params, observation_space)
+        self.observation_space, self.action_space = batched.host_spaces(env, self.params, observation_space)
         self.outcome_names = _outcome_names(env, outcome_names)
         self._key = None
         self._state = None
-        self._reset_fn = partial(_reset_one, env)
-        self._step_fn = partial(_step_one, env)
+        self._reset_fn = partial(batched.reset_one, env)
+        self._step_fn = partial(batched.step_one, env)
 
 
     def step(self, action):
@@ -241,21 +198,22 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": 4, "autoreset_mode": AutoresetMode.SAME_STEP}
 
-    def __init__(self, env: Environment, num_envs: int, params=None, render_mode: str | None = None,
-                 outcome_names=None, observation_space: spaces.Space | None = None):
+    def __init__(self, env: Environment, num_envs: int, params: Any = None, render_mode: str | None = None,
+                 outcome_names: Sequence[str] | None = None, observation_space: spaces.Space | None = None) -> None:
         check_positive_int("num_envs", num_envs)
         self.render_mode = _check_render_mode(render_mode, env)
         self.env = env
         self.num_envs = int(num_envs)
         self.params = env.default_params if params is None else params
-        self.single_observation_space, self.single_action_space = _spaces(env, self.params, observation_space)
+        self.single_observation_space, self.single_action_space = batched.host_spaces(env, self.params,
+                                                                                      observation_space)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.outcome_names = _outcome_names(env, outcome_names)
         self._key = None
         self._state = None
-        self._reset_fn = partial(_reset_batch, env, self.num_envs)
-        self._step_fn = partial(_step_batch, env, self.num_envs)
+        self._reset_fn = partial(batched.reset, env, self.num_envs)
+        self._step_fn = partial(batched.step, env, self.num_envs)
 
 
     def step(self, actions):

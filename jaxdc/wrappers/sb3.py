@@ -3,8 +3,8 @@
 SB3 does not accept gymnasium's ``VectorEnv``, and ``make_vec_env`` steps
 ``num_envs`` single environments one Python call at a time. :class:`JaxdcVecEnv`
 steps them with one jitted ``vmap`` of :meth:`~jaxdc.core.env.Environment.step`
-(the compiled functions of :mod:`jaxdc.wrappers.gymnasium`, shared with its
-adapters) and follows SB3's ``VecEnv`` contract:
+(the compiled functions of :mod:`jaxdc.wrappers.batched`, shared with the
+gymnasium adapters) and follows SB3's ``VecEnv`` contract:
 
 * ``reset()`` returns the batched first observations; the seed set by
   ``seed(s)`` (SB3 passes ``seed + i`` per copy; the first of them keys the
@@ -42,7 +42,7 @@ except ImportError as e:  # pragma: no cover - exercised only without the extra
 
 from jaxdc.core.env import Environment
 from jaxdc.core.validate import check_positive_int, check_seed
-from jaxdc.wrappers.gymnasium import _reset_batch, _spaces, _step_batch
+from jaxdc.wrappers import batched
 
 __all__ = ["JaxdcVecEnv", "make_sb3_vec_env"]
 
@@ -62,14 +62,14 @@ class JaxdcVecEnv(VecEnv):
         self.params = env.default_params if params is None else params
         self.render_mode = None
         n = check_positive_int("num_envs", num_envs)
-        obs_space, act_space = _spaces(env, self.params)
+        obs_space, act_space = batched.host_spaces(env, self.params)
         super().__init__(n, obs_space, act_space)
         self._first_seed = None if seed is None else check_seed("seed", seed)
         self._key = None
         self._state = None
         self._actions = None
-        self._reset_fn = partial(_reset_batch, env, n)
-        self._step_fn = partial(_step_batch, env, n)
+        self._reset_fn = partial(batched.reset, env, n)
+        self._step_fn = partial(batched.step, env, n)
         self._started = np.full(n, time.perf_counter())
 
     # -- the VecEnv interface -------------------------------------------------------------
