@@ -46,8 +46,18 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from jaxdc.agents.common import (Network, RunConfig, Trainer, Transition, check_network, heuristics_fn, huber,
-                                 lr_schedule, make_optimizer_from, nstep_returns)
+from jaxdc.agents.common import (
+    Network,
+    RunConfig,
+    Trainer,
+    Transition,
+    check_network,
+    heuristics_fn,
+    huber,
+    lr_schedule,
+    make_optimizer_from,
+    nstep_returns,
+)
 from jaxdc.core.env import step_batch
 from jaxdc.core.validate import check_float, check_positive_int
 

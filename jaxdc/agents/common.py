@@ -194,7 +194,8 @@ def huber(x, delta: float = 1.0):
 
 
 def lr_schedule(config: RunConfig, lr: float | None = None):
-    """Learning rate per update: ``lr`` (default ``config.lr``) linearly to 0 at update ``num_updates`` (at ``T_max``)."""
+    """Learning rate per update: ``lr`` (default ``config.lr``) linearly to 0 at update ``num_updates``
+    (at ``T_max``)."""
     return optax.linear_schedule(config.lr if lr is None else lr, 0.0, config.num_updates)
 
 

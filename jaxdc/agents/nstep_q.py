@@ -30,8 +30,17 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from jaxdc.agents.common import (Network, RunConfig, Trainer, Transition, check_network, heuristics_fn, huber,
-                                 make_optimizer_from, nstep_returns)
+from jaxdc.agents.common import (
+    Network,
+    RunConfig,
+    Trainer,
+    Transition,
+    check_network,
+    heuristics_fn,
+    huber,
+    make_optimizer_from,
+    nstep_returns,
+)
 from jaxdc.core.env import tree_select
 from jaxdc.core.validate import INT32_MAX, check_float, is_int
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import jax.numpy as jnp
+import numpy as np
 
 from jaxdc.core.validate import check_int
 

@@ -41,10 +41,17 @@ import numpy as np
 from flax import struct
 
 from jaxdc.core import grid
-from jaxdc.core.energy import ENERGY_METRICS, check_budget, energy_used, observed_energy, observed_energy_bound, step_energy
+from jaxdc.core.energy import (
+    ENERGY_METRICS,
+    check_budget,
+    energy_used,
+    observed_energy,
+    observed_energy_bound,
+    step_energy,
+)
 from jaxdc.core.env import Environment, Transition
-from jaxdc.core.scene import Scene
 from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, uniform_index
+from jaxdc.core.scene import Scene
 from jaxdc.core.validate import INT32_MAX, check_int, is_int
 from jaxdc.dcg import opponents as opp_lib
 from jaxdc.dcg import picture
@@ -412,7 +419,8 @@ class DCG(Environment[EnvState, EnvParams]):
         rows, cols = jnp.arange(n)[:, None], jnp.arange(n)[None, :]
         me = (rows == state.pos[0]) & (cols == state.pos[1])
         opp = (rows == state.opponent.pos[0]) & (cols == state.opponent.pos[1]) & ~self.opponent_hidden(state)
-        return jnp.where(opp, -1.0, jnp.where(me, observed_energy(state.energy, params.max_steps), 0.0)).astype(jnp.float32)
+        energy = observed_energy(state.energy, params.max_steps)
+        return jnp.where(opp, -1.0, jnp.where(me, energy, 0.0)).astype(jnp.float32)
 
     def planes(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The current state ``s_t`` as two planes ``[N, N, 2]``: ``M^item``, ``M^agent``."""

@@ -30,10 +30,17 @@ import numpy as np
 from flax import struct
 
 from jaxdc.core import grid
-from jaxdc.core.energy import ENERGY_METRICS, check_budget, energy_used, observed_energy, observed_energy_bound, step_energy
+from jaxdc.core.energy import (
+    ENERGY_METRICS,
+    check_budget,
+    energy_used,
+    observed_energy,
+    observed_energy_bound,
+    step_energy,
+)
 from jaxdc.core.env import Environment, Transition
-from jaxdc.core.scene import Scene
 from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, running_count, uniform_index
+from jaxdc.core.scene import Scene
 from jaxdc.core.validate import INT32_MAX, check_int, check_positive_int, is_int
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
@@ -124,7 +131,8 @@ class DCP(Environment[EnvState, EnvParams]):
             if not is_int(min_total_reward):
                 raise TypeError(f"min_total_reward must be None or an int, got {min_total_reward!r}")
             if not 1 <= min_total_reward <= total_reward:
-                raise ValueError(f"min_total_reward must be in [1, total_reward={total_reward}], got {min_total_reward}")
+                raise ValueError(
+                    f"min_total_reward must be in [1, total_reward={total_reward}], got {min_total_reward}")
         if start not in STARTS:
             raise ValueError(f"start must be one of {STARTS}, got {start!r}")
         if energy_metric not in ENERGY_METRICS:
