@@ -33,6 +33,7 @@ of sections 5.4.3-5.4.5), kept in the state so that everything stays pure.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import jax
@@ -274,6 +275,7 @@ class DCG(Environment[EnvState, EnvParams]):
     def _reward_area_table(self) -> tuple[jax.Array, jax.Array]:
         """``(table, counts)`` for sizes ``min_reward_area .. reward_area``: the cells of each square
         (:meth:`reward_area_cells`), padded to the largest, and how many each has."""
+        assert self.min_reward_area is not None and self.reward_area is not None  # only built with both
         areas = [self.reward_area_cells(s) for s in range(self.min_reward_area, self.reward_area + 1)]
         table = np.zeros((len(areas), max(a.size for a in areas)), np.int32)
         for i, a in enumerate(areas):
@@ -334,7 +336,7 @@ class DCG(Environment[EnvState, EnvParams]):
         )
         if self.history_fill == "first":
             plane = self.agent_plane(state, params)
-            state = state.replace(history=jnp.repeat(plane[..., None], self.history, axis=-1))
+            state = dataclasses.replace(state, history=jnp.repeat(plane[..., None], self.history, axis=-1))
         return self.observe(state, params), state
 
     def opponent_move(self, key: jax.Array, state: EnvState, params: EnvParams) -> tuple[jax.Array, OpponentState]:
@@ -384,7 +386,8 @@ class DCG(Environment[EnvState, EnvParams]):
             RUNNING,
         ).astype(jnp.int32)
         history = jnp.concatenate([self.agent_plane(state, params)[..., None], state.history[..., :-1]], axis=-1)
-        new_state = state.replace(
+        new_state = dataclasses.replace(
+            state,
             pos=pos, energy=energy, items=items, opponent=opp, history=history, time=time, outcome=outcome,
             ep_reward=state.ep_reward + reward, ep_energy=state.ep_energy + used.astype(jnp.int32),
         )

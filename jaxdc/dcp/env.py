@@ -124,7 +124,7 @@ class DCP(Environment[EnvState, EnvParams]):
         idle_terminates: bool = False,
         item_order: str = "drop",
         min_total_reward: int | None = None,
-    ):
+    ) -> None:
         self.grid_size = grid.check_grid_size(grid_size, max_cells=MAX_RANGE)  # the drop's uniform_index range
         check_int("total_reward", total_reward, 1, MAX_TOTAL_REWARD)
         if min_total_reward is not None:

@@ -82,7 +82,7 @@ def _renderer(env: Environment, render_mode: str = "ansi") -> Callable[[Any, Any
     return env.render_ansi
 
 
-def _check_action(action, num_actions: int) -> np.int32:
+def _check_action(action: Any, num_actions: int) -> np.int32:
     try:
         a = np.asarray(action)
         ok = a.shape == () and np.issubdtype(a.dtype, np.integer) and 0 <= int(a) < num_actions
@@ -98,15 +98,26 @@ class _KeyedReset:
     ``PRNGKey(s)``; every reset and step then splits off a subkey. A reset without a seed
     continues the stream (the very first one draws its seed from gymnasium's ``np_random``)."""
 
+    # set by the adapter's constructor
+    env: Environment
+    params: Any
+    render_mode: str | None
+    np_random: np.random.Generator
+    _key: jax.Array | None
+    _state: Any
+    _reset_fn: Callable[..., Any]
+    _step_fn: Callable[..., Any]
+
     @property
-    def state(self):
+    def state(self) -> Any:
         """The current functional state, batched for the vector env (``None`` before the first reset)."""
         return self._state
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         if seed is not None:
             check_seed("seed", seed)
-        super().reset(seed=seed)
+        super().reset(seed=seed)  # type: ignore[misc]  # gymnasium's Env/VectorEnv, next in the adapter's MRO
         if seed is not None:
             self._key = jax.random.PRNGKey(seed)
         elif self._key is None:
@@ -114,7 +125,7 @@ class _KeyedReset:
         self._key, obs, self._state = self._reset_fn(self._key, self.params)
         return np.asarray(obs, dtype=np.float32), {}
 
-    def _host_state(self, what: str):
+    def _host_state(self, what: str) -> tuple[Any, Any] | None:
         """``(state, params)`` on the host for ``render``; None (with a warning) without a render mode."""
         if self.render_mode is None:
             gymnasium.logger.warn(f"{what}() called without a render_mode; pass render_mode='ansi' or 'rgb_array'")
@@ -153,11 +164,10 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
         self._reset_fn = partial(batched.reset_one, env)
         self._step_fn = partial(batched.step_one, env)
 
-
-    def step(self, action):
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._state is None:
             raise RuntimeError("call reset() before step()")
-        action = _check_action(action, int(self.action_space.n))
+        action = _check_action(action, int(self.env.num_actions))
         out = self._step_fn(self._key, self._state, action, self.params)
         self._key, obs, self._state, reward, terminated, truncated, info = out
         obs, reward, terminated, truncated, info = jax.device_get((obs, reward, terminated, truncated, info))
@@ -169,7 +179,7 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
             self._info(info),
         )
 
-    def _info(self, info) -> dict:
+    def _info(self, info: dict[str, Any]) -> dict[str, Any]:
         out = {}
         for k, v in info.items():
             v = np.asarray(v)
@@ -179,9 +189,9 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
             out["outcome"] = self.outcome_names[int(out["outcome"])]
         return out
 
-    def render(self):
+    def render(self) -> Any:  # str (ansi) or uint8 [H, W, 3] (rgb_array)
         host = self._host_state("render")
-        return None if host is None else _renderer(self.env, self.render_mode)(*host)
+        return None if host is None else _renderer(self.env, self.render_mode or "ansi")(*host)
 
 
 class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
@@ -215,8 +225,7 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
         self._reset_fn = partial(batched.reset, env, self.num_envs)
         self._step_fn = partial(batched.step, env, self.num_envs)
 
-
-    def step(self, actions):
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if self._state is None:
             raise RuntimeError("call reset() before step()")
         a = np.asarray(actions)
@@ -224,7 +233,7 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
             a.astype(self.action_space.dtype)
         ):
             raise ValueError(
-                f"actions must be {self.num_envs} ints in [0, {self.single_action_space.n}), got {actions!r}"
+                f"actions must be {self.num_envs} ints in [0, {self.env.num_actions}), got {actions!r}"
             )
         out = self._step_fn(self._key, self._state, a.astype(np.int32), self.params)
         self._key, obs, self._state, reward, terminated, truncated, info = out
@@ -239,7 +248,7 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
             self._info(info, terminated | truncated),
         )
 
-    def _info(self, info, done) -> dict:
+    def _info(self, info: dict[str, Any], done: np.ndarray) -> dict[str, Any]:
         info = dict(info)
         final = np.asarray(info.pop("final_observation"), dtype=np.float32)
         out: dict[str, Any] = {}
@@ -258,12 +267,12 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
         out["_final_obs"] = done.copy()
         return out
 
-    def render(self):
+    def render(self) -> tuple[Any, ...] | None:
         host = self._host_state("render")
         if host is None:
             return None
         state, params = host
-        render = _renderer(self.env, self.render_mode)
+        render = _renderer(self.env, self.render_mode or "ansi")
         return tuple(
             render(jax.tree_util.tree_map(lambda x, i=i: x[i], state), params) for i in range(self.num_envs)
         )
@@ -272,15 +281,17 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
 # -- entry points of "jaxdc/DCP-v0" --------------------------------------------------------
 
 
-def _build_dcp(risk, energy, grid_size, total_reward, max_steps, start, dcp_kwargs):
+def _build_dcp(risk: Any, energy: Any, grid_size: int, total_reward: int, max_steps: int, start: str,
+               dcp_kwargs: dict[str, Any]) -> tuple[Environment, Any]:
     from jaxdc.dcp.env import DCP
 
     env = DCP(grid_size=grid_size, total_reward=total_reward, start=start, **dcp_kwargs)
     return env, env.make_params(risk=risk, energy=energy, max_steps=max_steps)
 
 
-def make_dcp(risk="high", energy=(8.0, 16.0), grid_size: int = 8, total_reward: int = 30, max_steps: int = 1000,
-             start: str = "random_free", render_mode: str | None = None, **dcp_kwargs) -> JaxToGymnasium:
+def make_dcp(risk: Any = "high", energy: Any = (8.0, 16.0), grid_size: int = 8, total_reward: int = 30,
+             max_steps: int = 1000, start: str = "random_free", render_mode: str | None = None,
+             **dcp_kwargs: Any) -> JaxToGymnasium:
     """The DCP as a :class:`JaxToGymnasium` (entry point of ``"jaxdc/DCP-v0"``).
 
     ``dcp_kwargs`` go to :class:`~jaxdc.dcp.env.DCP` (``items_on_base``,
@@ -292,9 +303,10 @@ def make_dcp(risk="high", energy=(8.0, 16.0), grid_size: int = 8, total_reward: 
     return JaxToGymnasium(env, params, render_mode=render_mode)
 
 
-def make_dcp_vector(num_envs: int = 1, risk="high", energy=(8.0, 16.0), grid_size: int = 8, total_reward: int = 30,
+def make_dcp_vector(num_envs: int = 1, risk: Any = "high", energy: Any = (8.0, 16.0), grid_size: int = 8,
+                    total_reward: int = 30,
                     max_steps: int = 1000, start: str = "random_free", render_mode: str | None = None,
-                    **dcp_kwargs) -> JaxVectorEnv:
+                    **dcp_kwargs: Any) -> JaxVectorEnv:
     """The DCP as a :class:`JaxVectorEnv` (vector entry point of ``"jaxdc/DCP-v0"``)."""
     _check_render_mode(render_mode)
     env, params = _build_dcp(risk, energy, grid_size, total_reward, max_steps, start, dcp_kwargs)
@@ -304,7 +316,7 @@ def make_dcp_vector(num_envs: int = 1, risk="high", energy=(8.0, 16.0), grid_siz
 # -- entry points of "jaxdc/DCG-v0" --------------------------------------------------------
 
 
-def _build_dcg(energy, max_steps, chase_tie, dcg_kwargs):
+def _build_dcg(energy: float, max_steps: int, chase_tie: str, dcg_kwargs: dict[str, Any]) -> tuple[Environment, Any]:
     from jaxdc.dcg.env import DCG
 
     env = DCG(**dcg_kwargs)
@@ -312,7 +324,7 @@ def _build_dcg(energy, max_steps, chase_tie, dcg_kwargs):
 
 
 def make_dcg(energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight",
-             render_mode: str | None = None, **dcg_kwargs) -> JaxToGymnasium:
+             render_mode: str | None = None, **dcg_kwargs: Any) -> JaxToGymnasium:
     """The DCG as a :class:`JaxToGymnasium` (entry point of ``"jaxdc/DCG-v0"``).
 
     ``dcg_kwargs`` go to :class:`~jaxdc.dcg.env.DCG` (``grid_size``,
@@ -326,7 +338,7 @@ def make_dcg(energy: float = 15.0, max_steps: int = 100, chase_tie: str = "strai
 
 
 def make_dcg_vector(num_envs: int = 1, energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight",
-                    render_mode: str | None = None, **dcg_kwargs) -> JaxVectorEnv:
+                    render_mode: str | None = None, **dcg_kwargs: Any) -> JaxVectorEnv:
     """The DCG as a :class:`JaxVectorEnv` (vector entry point of ``"jaxdc/DCG-v0"``)."""
     _check_render_mode(render_mode)
     env, params = _build_dcg(energy, max_steps, chase_tie, dcg_kwargs)
