@@ -13,8 +13,8 @@ import pytest
 
 from jaxdc import checkpoint
 from jaxdc.agents.a2c import A2CConfig, huber, lr_schedule, make_policy, make_train, nstep_returns
-from jaxdc.core.rollout import run_episodes
 from jaxdc.core.paths import safest_paths
+from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.dcp.navigators import batched_heuristics

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from jaxdc.agents.nstep_q import QConfig, epsilon_greedy, make_q_policy, make_train
-from jaxdc.core.rollout import run_episodes
 from jaxdc.core.paths import safest_paths
+from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp.env import DCP
-from jaxdc.dcp.navigators import batched_heuristics
 from jaxdc.dcp.evaluate import summarize
+from jaxdc.dcp.navigators import batched_heuristics
 from jaxdc.nets import EQN
 
 ENV = DCP(grid_size=4, total_reward=6)

@@ -56,7 +56,7 @@ def test_step_batch_deterministic_and_fallback_used_when_slots_short():
 # -- the auto-reset under vmap (core.env.reset_where) -------------------------------------------------------
 def _unbatched_steps(env, keys, state, action, params):
     """``env.step`` for each environment alone (a Python loop of unbatched steps), stacked."""
-    outs = [env.step(keys[i], jax.tree_util.tree_map(lambda x: x[i], state), action[i], params)
+    outs = [env.step(keys[i], jax.tree_util.tree_map(lambda x, i=i: x[i], state), action[i], params)
             for i in range(keys.shape[0])]
     return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *outs)
 
@@ -103,8 +103,8 @@ def test_batched_auto_reset_with_per_environment_params_and_nested_vmap():
     _, state = jax.vmap(env.reset)(keys, batch_params)
     action = jnp.arange(b) % 9
     got = jax.jit(jax.vmap(env.step))(keys, state, action, batch_params)  # params batched: the reset-all path
-    want = [env.step(keys[i], jax.tree_util.tree_map(lambda x: x[i], state), action[i],
-                     jax.tree_util.tree_map(lambda x: x[i], batch_params)) for i in range(b)]
+    want = [env.step(keys[i], jax.tree_util.tree_map(lambda x, i=i: x[i], state), action[i],
+                     jax.tree_util.tree_map(lambda x, i=i: x[i], batch_params)) for i in range(b)]
     chex.assert_trees_all_equal(got, jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *want))
     # vmap over seeds of vmap over environments (agents.parallel): the same as each inner batch alone
     inner = jax.vmap(env.step, in_axes=(0, 0, 0, None))
@@ -113,5 +113,16 @@ def test_batched_auto_reset_with_per_environment_params_and_nested_vmap():
     action2 = jnp.stack([action, action[::-1]])
     nested = jax.jit(jax.vmap(inner, in_axes=(0, 0, 0, None)))(keys2, state2, action2, params)
     for s in range(2):
-        one = inner(keys2[s], jax.tree_util.tree_map(lambda x: x[s], state2), action2[s], params)
-        chex.assert_trees_all_equal(jax.tree_util.tree_map(lambda x: x[s], nested), one)
+        one = inner(keys2[s], jax.tree_util.tree_map(lambda x, s=s: x[s], state2), action2[s], params)
+        chex.assert_trees_all_equal(jax.tree_util.tree_map(lambda x, s=s: x[s], nested), one)
+
+
+def test_reset_chunk_is_part_of_the_static_key():
+    """``reset_chunk`` changes the compiled auto-reset, so environments that differ in it neither compare nor hash
+    equal (they are static arguments of jitted functions)."""
+    a, b = DCP(grid_size=4, total_reward=3), DCP(grid_size=4, total_reward=3)
+    assert a == b and hash(a) == hash(b)
+    b.reset_chunk = 2
+    assert a != b and hash(a) != hash(b)
+    a.reset_chunk = 2
+    assert a == b and hash(a) == hash(b)

@@ -20,7 +20,10 @@ def test_too_many_episodes_are_refused_before_the_rollout(monkeypatch):
     monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(10 * 2**20))
     env = DCP(grid_size=4, total_reward=3)
     params = env.make_params(risk="low", energy=(4.0, 8.0), max_steps=10)
-    policy = lambda k, obs, state: jax.random.randint(k, (), 0, 9)
+
+    def policy(k, obs, state):
+        return jax.random.randint(k, (), 0, 9)
+
     with pytest.raises(MemoryError, match="1000000 evaluation episodes .* lower the number of episodes"):
         run_episodes(env, params, policy, jax.random.PRNGKey(0), 1_000_000)
     assert run_episodes(env, params, policy, jax.random.PRNGKey(0), 20).time.shape == (20,)

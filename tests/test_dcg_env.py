@@ -4,11 +4,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import make_game
 from scipy import stats
 
 from jaxdc.core import grid
 from jaxdc.dcg import DCG
-from conftest import make_game
 from jaxdc.dcg.env import CAUGHT, CLEARED, ENERGY, OUTCOMES, RUNNING, TRUNCATED
 
 N = 5
@@ -336,15 +336,16 @@ def test_caught_energy_reading(reading, energy_left, counted):
 def test_safe_base_and_opponent_out_of_base():
     env = DCG(grid_size=3, strategies=("restricted",), safe_base=True)
     params = env.make_params(energy=8.0)
-    state = make_game(env, pos=(0, 0), opp=(0, 1), strategy="restricted", items={(2, 2): 1.0})  # the chaser steps into the base
+    # the chaser steps into the base
+    state = make_game(env, pos=(0, 0), opp=(0, 1), strategy="restricted", items={(2, 2): 1.0})
     _, s2, *_ = env.step_env(jax.random.PRNGKey(0), state, 0, params)  # stay: not caught in the base
     assert int(s2.outcome) == RUNNING and tuple(np.asarray(s2.opponent.pos)) == (0, 0)
     plain = DCG(grid_size=3, strategies=("restricted",))
     assert int(plain.step_env(jax.random.PRNGKey(0), make_game(plain, (0, 0), (0, 1), "restricted"), 0,
                               params)[1].outcome) == CAUGHT
     barred = DCG(grid_size=3, strategies=("restricted",), opponent_enters_base=False)
-    _, s3, _, _, _, info = barred.step_env(jax.random.PRNGKey(0), make_game(barred, (0, 0), (0, 1), "restricted", {(2, 2): 1.0}),
-                                           0, params)
+    _, s3, _, _, _, info = barred.step_env(
+        jax.random.PRNGKey(0), make_game(barred, (0, 0), (0, 1), "restricted", {(2, 2): 1.0}), 0, params)
     assert tuple(np.asarray(s3.opponent.pos)) == (0, 1) and int(info["opponent_action"]) == grid.STAY
     assert int(s3.outcome) == RUNNING
 

@@ -4,12 +4,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import make_game as game
 
 from jaxdc.core import grid
 from jaxdc.dcg import DCG, EnvState, OpponentState, register_strategy, registered_strategies
 from jaxdc.dcg import opponents as opp_lib
-
-from conftest import make_game as game
 
 N = 5
 ALL = ("patrol", "restricted", "with_fog", "double_blind")
@@ -57,14 +56,17 @@ def moves():
 def test_restricted_never_diagonal_and_closes_manhattan(moves, tie):
     pairs, a, new = moves["restricted", tie]
     assert np.all(a < 5), "restricted used a diagonal action"
-    for (p, o), act, q in zip(pairs, a, new):
+    for (p, o), q in zip(pairs, new):
         assert grid.manhattan(np.array(q), np.array(p)) == grid.manhattan(np.array(o), np.array(p)) - 1
 
 
 def test_restricted_tie_rules():
     one = jax.jit(ENV.opponent_move)
     k = jax.random.PRNGKey(0)
-    a = lambda p, o, tie: int(one(k, game(ENV, p, o, "restricted"), params(tie))[0])
+
+    def a(p, o, tie):
+        return int(one(k, game(ENV, p, o, "restricted"), params(tie))[0])
+
     assert a((0, 0), (4, 3), "straight") == 1  # larger (row) gap first: up
     assert a((0, 0), (3, 4), "straight") == 3  # larger (column) gap first: left
     assert a((0, 0), (3, 4), "order") == 1  # first of the best in thesis order: up

@@ -10,10 +10,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from conftest import make_state, risk_with
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import stats
 
-from conftest import make_state, risk_with
 from jaxdc.dcp.env import CLEARED, DCP, ENERGY, IDLE, RISK, RUNNING, TRUNCATED, EnvParams
 
 A = {"stay": 0, "up": 1, "down": 2, "left": 3, "right": 4, "up_left": 5, "up_right": 6, "down_left": 7,
@@ -54,9 +55,11 @@ def test_move_collect_energy_and_observation():
     # observation planes: M^item and M^agent (energy at the agent's cell)
     obs = np.asarray(obs)
     assert obs.shape == (4, 4, 2) == ENV.observation_shape()
-    expected_items = np.zeros((4, 4)); expected_items[0, 3] = 1
+    expected_items = np.zeros((4, 4))
+    expected_items[0, 3] = 1
     np.testing.assert_array_equal(obs[..., 0], expected_items)
-    expected_agent = np.zeros((4, 4)); expected_agent[2, 2] = 4.0
+    expected_agent = np.zeros((4, 4))
+    expected_agent[2, 2] = 4.0
     np.testing.assert_array_equal(obs[..., 1], expected_agent)
 
 
@@ -376,9 +379,9 @@ def test_jit_vmap_equals_python_loop():
         skeys = jax.random.split(jax.random.PRNGKey(100 + t), b)
         out_v = B_VSTEP(skeys, states, actions, BPARAMS)
         for i in range(b):
-            st_i = jax.tree_util.tree_map(lambda x: x[i], states)
+            st_i = jax.tree_util.tree_map(lambda x, i=i: x[i], states)
             out_i = B_STEP(skeys[i], st_i, actions[i], BPARAMS)
-            chex.assert_trees_all_close(jax.tree_util.tree_map(lambda x: x[i], out_v), out_i)
+            chex.assert_trees_all_close(jax.tree_util.tree_map(lambda x, i=i: x[i], out_v), out_i)
         states = out_v[1]
 
 

@@ -16,8 +16,7 @@ import os
 
 import numpy as np
 import pytest
-
-from sb3_required import require_sb3  # noqa: E402
+from sb3_required import require_sb3
 
 pytestmark = pytest.mark.sb3
 
@@ -49,10 +48,9 @@ def _returns(env, act) -> np.ndarray:
 
 
 def test_ppo_learns_above_random_on_dcp():
+    import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.env_util import make_vec_env
-
-    import torch
 
     torch.set_num_threads(1)  # small network: one thread is fastest (benchmarks/train_throughput.py)
     venv = make_vec_env("jaxdc/DCP-v0", n_envs=4, seed=0, env_kwargs={**KWARGS, "render_mode": None})

@@ -11,7 +11,6 @@ from __future__ import annotations
 import hashlib
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -58,7 +57,8 @@ CASES = {
     "dcp": (lambda: _dcp(), None, "a35eaeb6c7a478bb"),
     "dcp_slots": (lambda: _dcp(), 16, "105abfd7db81a8cd"),
     "dcp_random_start_row_major": (lambda: _dcp(start="random", item_order="row_major"), None, "18a138187f46e1cd"),
-    "dcp_base_mix_idle": (lambda: _dcp(start="base", min_total_reward=1, idle_terminates=True), None, "0b6d30bb328f97ca"),
+    "dcp_base_mix_idle": (lambda: _dcp(start="base", min_total_reward=1, idle_terminates=True), None,
+                          "0b6d30bb328f97ca"),
     "dcg": (lambda: _dcg(), None, "22d9f33495ce25d1"),
     "dcg_slots": (lambda: _dcg(), 16, "b038ddf30fc19ca6"),
     "dcg_area_mix": (lambda: _dcg(reward_area=3, min_reward_area=1, history=3), None, "be5bda224cfef6a3"),

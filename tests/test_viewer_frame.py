@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -152,3 +154,29 @@ def test_draw_plan_one_colour_per_robot():
         viewer.draw_plan(graph, [[0, 1]])
     with pytest.raises(TypeError, match="Graph"):
         viewer.draw_plan({"nodes": []}, tours)
+
+
+class _Watched(DCP):
+    """A DCP variant whose scene adds an opponent at ``spot``: the viewer draws what the env's hook says, whatever
+    the env's type."""
+
+    spot = (4, 1)
+
+    def scene(self, state, params):
+        return dataclasses.replace(super().scene(state, params), opponent=np.array(self.spot), notes=("watched",))
+
+
+class _Off(_Watched):
+    spot = (7, 1)
+
+
+def test_viewer_draws_the_env_scene_hook():
+    env = _Watched(grid_size=N, total_reward=5)
+    params = env.make_params(risk=risk_with(N, {}, fill=0.0))
+    state = make_state(env, pos=(2, 3), energy=7, items={(1, 4): 3})
+    frame = viewer.render_frame(env, params, state)
+    plain = viewer.render_frame(DCP(grid_size=N, total_reward=5), params, state)
+    opp = pixel(frame, N, 4, 1)
+    assert opp[0] > opp[2] + 80 and pixel(plain, N, 4, 1).min() > 200  # red only where the hook put the opponent
+    with pytest.raises(ValueError, match=r"opponent pos \(7, 1\) is outside"):
+        viewer.render_frame(_Off(grid_size=N, total_reward=5), params, state)

@@ -98,8 +98,10 @@ def test_invalid_inputs():
         make_dcp(render_mode="human")
     with pytest.raises(ValueError, match="rgb_array"):
         gymnasium.make(ID, render_mode="human")
-    with pytest.raises(ValueError, match="DCP and DCG states only"):
+    with pytest.raises(ValueError, match="writes scene"):
         JaxToGymnasium(_PlainEnv(), render_mode="rgb_array")
+    with pytest.raises(ValueError, match="writes render_ansi"):
+        JaxToGymnasium(_PlainEnv(), render_mode="ansi")
     with pytest.raises(ValueError, match="risk preset"):
         gymnasium.make(ID, risk="extreme")
     with pytest.raises(ValueError, match="grid_size"):
@@ -189,14 +191,14 @@ def test_no_retrace_per_call():
     env = make_dcp(grid_size=5, risk="low")
     env.reset(seed=0)
     env.step(1)
-    from jaxdc.wrappers import gymnasium as gw
+    from jaxdc.wrappers import batched
 
-    sizes = (gw._reset_one._cache_size(), gw._step_one._cache_size())
+    sizes = (batched.reset_one._cache_size(), batched.step_one._cache_size())
     for a in range(9):
         env.step(np.int64(a))
     env.reset(seed=5)
     env.reset()
-    assert (gw._reset_one._cache_size(), gw._step_one._cache_size()) == sizes
+    assert (batched.reset_one._cache_size(), batched.step_one._cache_size()) == sizes
 
 
 # -- render ------------------------------------------------------------------------------
@@ -336,7 +338,22 @@ def test_vector_render():
 
 
 class _PlainEnv(Environment):
-    """An environment the viewer cannot draw (neither a DCP nor a DCG)."""
+    """An environment that writes neither picture hook (``render_ansi``, ``scene``)."""
 
     def _config(self) -> tuple:
         return ()
+
+
+class _Shouting(DCP):
+    """A DCP variant that names its outcomes differently: the adapters take the names from the env's hook."""
+
+    outcomes = tuple(name.upper() for name in OUTCOMES)
+
+
+def test_outcome_names_come_from_the_env():
+    env = JaxToGymnasium(_Shouting(grid_size=4, total_reward=3), render_mode="ansi")
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(0)
+    assert info["outcome"] in _Shouting.outcomes and info["outcome"].isupper()
+    assert env.render().startswith(DCP(grid_size=4, total_reward=3).render_ansi(env.state, env.params)[:1])
+    assert JaxToGymnasium(_Shouting(grid_size=4, total_reward=3), outcome_names=OUTCOMES).outcome_names == OUTCOMES

@@ -1,11 +1,9 @@
 """The gymnasium adapter of the DCG: jaxdc/DCG-v0, check_env, info, render, vector env, jaxdc.make."""
 
-import warnings
 
 import gymnasium
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
 
 import jaxdc
 from jaxdc.dcg import DCG

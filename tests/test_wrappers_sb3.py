@@ -5,10 +5,8 @@ Behind the ``sb3`` marker; ``.ci/run`` sets ``JAXDC_REQUIRE_SB3=1`` so that a mi
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
-
 from sb3_required import require_sb3  # noqa: E402
 
 pytestmark = pytest.mark.sb3

@@ -46,9 +46,19 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from jaxdc.agents.common import (Network, RunConfig, Trainer, Transition, check_network, heuristics_fn, huber,
-                                 lr_schedule, make_optimizer_from, nstep_returns)
-from jaxdc.core.env import step_batch
+from jaxdc.agents.common import (
+    Network,
+    RunConfig,
+    Trainer,
+    Transition,
+    check_network,
+    heuristics_fn,
+    huber,
+    lr_schedule,
+    make_optimizer_from,
+    nstep_returns,
+)
+from jaxdc.core.env import Environment, step_batch
 from jaxdc.core.validate import check_float, check_positive_int
 
 __all__ = ["A2CConfig", "Batch", "TrainState", "Trainer", "Transition", "a2c_loss", "aux_cross_entropy", "huber",
@@ -128,7 +138,7 @@ class TrainState:
     params: Any
     opt_state: Any
     env_state: Any  # batched [num_envs] environment states
-    obs: jax.Array  # [num_envs, N, N, 2]
+    obs: jax.Array  # [num_envs, N, N, C]: C = 2 for the DCP, 2 + k for the DCG with its history planes
     key: jax.Array
     update: jax.Array  # int32, updates done so far
 
@@ -146,14 +156,14 @@ class Batch(NamedTuple):
 
 
 # -- the pieces of the loss ---------------------------------------------------------------
-def make_optimizer(config: A2CConfig, aux_params=None):
+def make_optimizer(config: A2CConfig, aux_params: tuple[str, ...] | None = None) -> optax.GradientTransformation:
     """A2C's optimizer: Adam(b1, b2) on :func:`lr_schedule`, stepped per update whatever ``steps_per_update``,
     optional norm clipping, and with ``config.aux_lr`` a second Adam for the parameters under ``aux_params``
     (:func:`jaxdc.agents.common.make_optimizer_from`)."""
     return make_optimizer_from(config, config.steps_per_update, config.aux_lr, aux_params or ())
 
 
-def aux_cross_entropy(aux_logits, targets):
+def aux_cross_entropy(aux_logits: jax.Array, targets: jax.Array) -> tuple[jax.Array, jax.Array]:
     """Eq. 5.1: mean cross-entropy ``-log p(o_t)`` of the auxiliary head, and its accuracy (argmax = target).
 
     Written out instead of ``optax.softmax_cross_entropy_with_integer_labels`` on purpose:
@@ -166,8 +176,10 @@ def aux_cross_entropy(aux_logits, targets):
     return ce, jnp.mean(jnp.argmax(aux_logits, axis=-1) == targets)
 
 
-def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, config: A2CConfig,
-             aux_targets=None, old_log_probs=None, advantages=None):
+def a2c_loss(params: Any, apply_fn: Callable, obs: jax.Array, heuristics: jax.Array, actions: jax.Array,
+             returns: jax.Array, config: A2CConfig, aux_targets: jax.Array | None = None,
+             old_log_probs: jax.Array | None = None,
+             advantages: jax.Array | None = None) -> tuple[jax.Array, dict[str, jax.Array]]:
     """Mean over the batch of ``-log pi(a|s) A + value_coef * Huber(R - V) - entropy_coef * H(pi)``.
 
     ``A = R - V(s)`` is held constant (``stop_gradient``) in the policy term.
@@ -189,6 +201,7 @@ def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, conf
     if config.clip_eps is None:
         policy_loss = -jnp.mean(logp_a * adv)
     else:
+        assert old_log_probs is not None, "clip_eps needs old_log_probs"
         ratio = jnp.exp(logp_a - old_log_probs)
         clipped = jnp.clip(ratio, 1.0 - config.clip_eps, 1.0 + config.clip_eps)
         policy_loss = -jnp.mean(jnp.minimum(ratio * adv, clipped * adv))
@@ -197,6 +210,7 @@ def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, conf
     loss = policy_loss + config.value_coef * value_loss - config.entropy_coef * entropy
     metrics = {"policy_loss": policy_loss, "value_loss": value_loss, "entropy": entropy}
     if aux:
+        assert aux_targets is not None, "a network with an auxiliary head needs aux_targets"
         aux_loss, aux_accuracy = aux_cross_entropy(aux[0], aux_targets)
         loss = loss + config.aux_coef * aux_loss
         metrics.update(aux_loss=aux_loss, aux_accuracy=aux_accuracy)
@@ -204,7 +218,7 @@ def a2c_loss(params, apply_fn: Callable, obs, heuristics, actions, returns, conf
 
 
 # -- policies -----------------------------------------------------------------------------
-def make_policy(net: Network, params, heuristics: Callable | None = None, greedy: bool = False):
+def make_policy(net: Network, params: Any, heuristics: Callable | None = None, greedy: bool = False) -> Callable:
     """``policy(key, obs, state) -> action`` for one environment, as :func:`jaxdc.core.rollout.run_episodes` wants.
 
     Samples from ``pi`` (section 4.5: "the output of ENN is used as a
@@ -223,7 +237,7 @@ def make_policy(net: Network, params, heuristics: Callable | None = None, greedy
 
 
 # -- training -----------------------------------------------------------------------------
-def make_train(config: A2CConfig, env, env_params, net: Network, heuristics: Callable | None = None,
+def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Network, heuristics: Callable | None = None,
                aux_target: Callable | None = None) -> Trainer:
     """Build the A2C trainer of ``net`` on ``env`` with ``env_params`` (validated outside jit).
 
@@ -274,6 +288,7 @@ def make_train(config: A2CConfig, env, env_params, net: Network, heuristics: Cal
         params, opt_state = carry
         adv = batch.advantages
         if config.normalize_advantages:
+            assert adv is not None, "normalize_advantages needs the batch's advantages"
             adv = (adv - jnp.mean(adv)) / (jnp.std(adv) + 1e-8)
         grads, metrics = jax.grad(a2c_loss, has_aux=True)(
             params, net.apply, batch.obs, batch.heuristics, batch.action, batch.returns, config,
@@ -311,6 +326,7 @@ def make_train(config: A2CConfig, env, env_params, net: Network, heuristics: Cal
         returns = nstep_returns(traj.reward, traj.terminated, traj.truncated, traj.final_value,
                                 value_fn(ts.params, obs), config.gamma, values, config.gae_lambda)
         if needs_old_policy:
+            assert values is not None
             advantages = flat(returns - values)
         batch = Batch(flat(traj.obs), flat(traj.heuristics), flat(traj.action), flat(returns),
                       flat(traj.aux_target), old_log_prob, advantages)

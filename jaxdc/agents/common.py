@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from collections.abc import Sequence
 from typing import Any, Callable, NamedTuple, Protocol, runtime_checkable
 
 import jax
@@ -48,12 +49,12 @@ class Network(Protocol):
     has_aux: bool
     aux_params: tuple[str, ...]
 
-    def init(self, *args, **kwargs) -> Any: ...
+    def init(self, *args: Any, **kwargs: Any) -> Any: ...
 
-    def apply(self, *args, **kwargs) -> Any: ...
+    def apply(self, *args: Any, **kwargs: Any) -> Any: ...
 
 
-def check_network(net) -> Network:
+def check_network(net: Any) -> Network:
     """``net`` if it declares the :class:`Network` attributes, else a ``TypeError`` naming the missing ones."""
     missing = [a for a in ("num_actions", "uses_heuristics", "has_aux", "aux_params") if not hasattr(net, a)]
     if missing:
@@ -145,7 +146,8 @@ class Trainer(NamedTuple):
     config: RunConfig
 
 
-def nstep_returns(rewards, terminated, truncated, final_values, last_value, gamma, values=None, lam: float = 1.0):
+def nstep_returns(rewards: jax.Array, terminated: jax.Array, truncated: jax.Array, final_values: jax.Array,
+                  last_value: jax.Array, gamma: Any, values: jax.Array | None = None, lam: float = 1.0) -> jax.Array:
     """The n-step returns of Algorithm 10 over a rollout of ``[T, B]`` steps (lambda-returns if ``lam < 1``).
 
     Backwards from ``R_T = V(s_T)`` (``last_value``), ``R_t = r_t + gamma * X``
@@ -179,7 +181,7 @@ def nstep_returns(rewards, terminated, truncated, final_values, last_value, gamm
     return returns
 
 
-def huber(x, delta: float = 1.0):
+def huber(x: jax.Array, delta: float = 1.0) -> jax.Array:
     """Huber loss of section 4.4.3: ``0.5 x^2`` if ``|x| <= delta``, else ``delta (|x| - 0.5 delta)``.
 
     Written out instead of ``optax.huber_loss`` on purpose: both give the same
@@ -193,18 +195,19 @@ def huber(x, delta: float = 1.0):
     return jnp.where(ax <= delta, 0.5 * x * x, delta * (ax - 0.5 * delta))
 
 
-def lr_schedule(config: RunConfig, lr: float | None = None):
-    """Learning rate per update: ``lr`` (default ``config.lr``) linearly to 0 at update ``num_updates`` (at ``T_max``)."""
+def lr_schedule(config: RunConfig, lr: float | None = None) -> optax.Schedule:
+    """Learning rate per update: ``lr`` (default ``config.lr``) linearly to 0 at update ``num_updates``
+    (at ``T_max``)."""
     return optax.linear_schedule(config.lr if lr is None else lr, 0.0, config.num_updates)
 
 
-def make_adam(config: RunConfig, lr: float | None = None, steps_per_update: int = 1):
+def make_adam(config: RunConfig, lr: float | None = None, steps_per_update: int = 1) -> optax.GradientTransformation:
     """Adam(b1, b2) on :func:`lr_schedule` of ``lr``, stepped per update whatever ``steps_per_update``."""
     per_update, k = lr_schedule(config, lr), steps_per_update
     return optax.adam(per_update if k == 1 else (lambda count: per_update(count // k)), b1=config.b1, b2=config.b2)
 
 
-def aux_param_labels(params, names) -> Any:
+def aux_param_labels(params: Any, names: Sequence[str]) -> Any:
     """``"aux"`` for every leaf under a top-level parameter name in ``names`` (e.g. ``("omn",)``), else ``"main"``."""
     names = tuple(names)
     inner = params["params"] if isinstance(params, dict) and "params" in params else params
@@ -216,7 +219,7 @@ def aux_param_labels(params, names) -> Any:
 
 
 def make_optimizer_from(config: RunConfig, steps_per_update: int = 1, aux_lr: float | None = None,
-                        aux_params=()):
+                        aux_params: Sequence[str] = ()) -> optax.GradientTransformation:
     """:func:`make_adam` with optional global-norm clipping (``config.max_grad_norm``).
 
     With ``aux_lr`` (an option, not in the thesis) the parameters under the top-level names
@@ -235,7 +238,7 @@ def make_optimizer_from(config: RunConfig, steps_per_update: int = 1, aux_lr: fl
     return optax.chain(optax.clip_by_global_norm(config.max_grad_norm), adam)
 
 
-def heuristics_fn(net: Network, heuristics: Callable | None):
+def heuristics_fn(net: Network, heuristics: Callable | None) -> Callable:
     """``env_states [B] -> [B, H, A]``: the given heuristics for a network that uses them (ENN, EQN),
     zeros ``[B, 1, A]`` for one that ignores them (linear, CNN).
 

@@ -30,9 +30,18 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from jaxdc.agents.common import (Network, RunConfig, Trainer, Transition, check_network, heuristics_fn, huber,
-                                 make_optimizer_from, nstep_returns)
-from jaxdc.core.env import tree_select
+from jaxdc.agents.common import (
+    Network,
+    RunConfig,
+    Trainer,
+    Transition,
+    check_network,
+    heuristics_fn,
+    huber,
+    make_optimizer_from,
+    nstep_returns,
+)
+from jaxdc.core.env import Environment, tree_select
 from jaxdc.core.validate import INT32_MAX, check_float, is_int
 
 #: Epsilon of the evaluation policy (section 4.5.5).
@@ -67,7 +76,7 @@ class QConfig(RunConfig):
         """Updates between target-network copies (at least 1)."""
         return max(1, self.target_every // self.batch_size)
 
-    def epsilon(self, update):
+    def epsilon(self, update: Any) -> jax.Array:
         """Exploration epsilon at ``update`` (jittable)."""
         frac = jnp.clip(update / max(1.0, self.eps_fraction * self.num_updates), 0.0, 1.0)
         return self.eps_start + frac * (self.eps_end - self.eps_start)
@@ -86,7 +95,7 @@ class QTrainState:
     update: jax.Array
 
 
-def epsilon_greedy(key, q, epsilon):
+def epsilon_greedy(key: jax.Array, q: jax.Array, epsilon: Any) -> jax.Array:
     """Argmax of ``q [..., A]``, or a uniform action with probability ``epsilon``."""
     k_explore, k_action = jax.random.split(key)
     random_action = jax.random.randint(k_action, q.shape[:-1], 0, q.shape[-1])
@@ -94,7 +103,8 @@ def epsilon_greedy(key, q, epsilon):
     return jnp.where(explore, random_action, jnp.argmax(q, axis=-1)).astype(jnp.int32)
 
 
-def q_loss(params, apply_fn: Callable, obs, heuristics, actions, returns):
+def q_loss(params: Any, apply_fn: Callable, obs: jax.Array, heuristics: jax.Array, actions: jax.Array,
+           returns: jax.Array) -> tuple[jax.Array, dict[str, jax.Array]]:
     """Mean Huber loss of ``R - Q(s, a)``."""
     q = apply_fn(params, obs, heuristics)
     q_a = jnp.take_along_axis(q, actions[:, None], axis=-1)[:, 0]
@@ -102,7 +112,8 @@ def q_loss(params, apply_fn: Callable, obs, heuristics, actions, returns):
     return loss, {"loss": loss, "q_mean": jnp.mean(q_a)}
 
 
-def make_q_policy(net: Network, params, heuristics: Callable | None = None, epsilon: float = EVAL_EPSILON):
+def make_q_policy(net: Network, params: Any, heuristics: Callable | None = None,
+                  epsilon: float = EVAL_EPSILON) -> Callable:
     """``policy(key, obs, state)`` for :func:`jaxdc.core.rollout.run_episodes`: epsilon-greedy on EQN's Q."""
     heuristics = heuristics_fn(net, heuristics)
 
@@ -113,7 +124,8 @@ def make_q_policy(net: Network, params, heuristics: Callable | None = None, epsi
     return policy
 
 
-def make_train(config: QConfig, env, env_params, net: Network, heuristics: Callable | None = None) -> Trainer:
+def make_train(config: QConfig, env: Environment, env_params: Any, net: Network,
+               heuristics: Callable | None = None) -> Trainer:
     """Build the n-step Q trainer of ``net`` (an :class:`jaxdc.nets.EQN`); same interface as A2C's."""
     if not isinstance(config, QConfig):
         raise TypeError(f"config must be a QConfig, got {type(config).__name__}")

@@ -29,6 +29,7 @@ started with ``keys[i]``.
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import jax
 import numpy as np
@@ -54,7 +55,7 @@ def data_mesh(num_devices: int | None = None) -> Mesh:
     return Mesh(np.asarray(devices[:n]), (DATA_AXIS,))
 
 
-def state_shardings(state, mesh: Mesh, seed_axis: bool = False):
+def state_shardings(state: Any, mesh: Mesh, seed_axis: bool = False) -> Any:
     """Shardings of a training state: ``env_state``/``obs`` split along the environment axis, the rest replicated.
 
     ``seed_axis``: the state carries a leading seed axis (:func:`parallelize` with ``num_seeds``), so the
@@ -111,6 +112,6 @@ def parallelize(trainer: Trainer, mesh: Mesh | None = None, num_seeds: int | Non
         config=trainer.config)
 
 
-def place(state, mesh: Mesh, seed_axis: bool = False):
+def place(state: Any, mesh: Mesh, seed_axis: bool = False) -> Any:
     """Put a (restored, host) training state on ``mesh`` as :func:`state_shardings` says."""
     return jax.device_put(state, state_shardings(state, mesh, seed_axis))

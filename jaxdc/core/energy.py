@@ -16,6 +16,9 @@ either: the two mean the same game, and the number stays finite.
 
 from __future__ import annotations
 
+from typing import Any
+
+import jax
 import jax.numpy as jnp
 
 from jaxdc.core.validate import check_float
@@ -29,19 +32,19 @@ MAX_FINITE_ENERGY = float(2**24)
 ENERGY_METRICS = ("not_stay_in_base", "outside_base", "all_steps")
 
 
-def step_energy(energy, max_energy, in_base):
+def step_energy(energy: Any, max_energy: Any, in_base: Any) -> tuple[jax.Array, jax.Array]:
     """``(energy, out_of_energy)`` after a move: refilled to ``max_energy`` in the base, else one less (not below 0);
     ``out_of_energy`` when it is 0 outside the base."""
     energy = jnp.where(in_base, max_energy, jnp.maximum(energy - 1.0, 0.0))
     return energy, ~in_base & (energy <= 0)
 
 
-def observed_energy(energy, max_steps):
+def observed_energy(energy: Any, max_steps: Any) -> jax.Array:
     """The energy as an observation shows it: a finite budget as it is, ``inf`` as ``max_steps`` (finite)."""
     return jnp.where(jnp.isinf(energy), jnp.asarray(max_steps, jnp.float32), energy)
 
 
-def observed_energy_bound(max_energy, max_steps, init_energy=None) -> float:
+def observed_energy_bound(max_energy: Any, max_steps: Any, init_energy: Any = None) -> float:
     """The largest energy an observation can show (outside jit): ``max_energy``, or, when it is unlimited,
     ``max_steps`` or a larger finite ``init_energy`` (shown until the first refill)."""
     budgets = [float(max_energy)] + ([] if init_energy is None else [float(init_energy)])
@@ -49,12 +52,12 @@ def observed_energy_bound(max_energy, max_steps, init_energy=None) -> float:
     return max(finite + ([float(max_steps)] if len(finite) < len(budgets) else []))
 
 
-def check_budget(name: str, value) -> float:
+def check_budget(name: str, value: Any) -> float:
     """An energy budget: a number > 0, at most :data:`MAX_FINITE_ENERGY` or ``inf`` (no constraint)."""
     return check_float(name, value, 0.0, MAX_FINITE_ENERGY, low_open=True, allow_inf=True)
 
 
-def energy_used(metric: str, in_base, was_in_base):
+def energy_used(metric: str, in_base: Any, was_in_base: Any) -> jax.Array:
     """Whether the step counts as energy consumed under ``metric`` (:data:`ENERGY_METRICS`, static): ``in_base``
     and ``was_in_base`` say where the agent ends and started the step."""
     if metric == "not_stay_in_base":

@@ -16,6 +16,14 @@ Static configuration (grid size, the thesis' ambiguity choices) belongs to
 the constructor and is validated there; numeric settings that may differ
 within one batch (risk maps, energies, the step cap) are ``EnvParams``
 leaves, so ``jax.vmap`` can map over them.
+
+What is specific to one problem travels with its environment, so generic code
+(the wrappers, the viewer) calls hooks instead of testing the type: the
+outcome names (:attr:`Environment.outcomes`), the state and parameter types
+(:attr:`Environment.state_type`, :attr:`Environment.params_type`), the text
+picture (:meth:`Environment.render_ansi`) and the layers of a drawn frame
+(:meth:`Environment.scene`, a :class:`~jaxdc.core.scene.Scene`);
+:func:`writes` says whether an environment writes a hook.
 """
 
 from __future__ import annotations
@@ -27,15 +35,29 @@ import jax.numpy as jnp
 from jax.custom_batching import custom_vmap
 
 from jaxdc.core import grid, spaces
+from jaxdc.core.scene import Scene
 
 S = TypeVar("S")
 P = TypeVar("P")
+
+#: What a step returns: ``(obs, state, reward, terminated, truncated, info)``.
+Transition = tuple[jax.Array, Any, jax.Array, jax.Array, jax.Array, dict[str, Any]]
 
 
 class Environment(Generic[S, P]):
     """Base of the jaxdc environments: pure, jittable and vmappable."""
 
-    def make_params(self, **kwargs) -> P:
+    #: ``N``: the side of the square grid (set by the constructor).
+    grid_size: int
+    #: The names of how an episode ends: ``info["outcome"]`` (and ``state.outcome``) index this tuple;
+    #: ``None`` where the environment names no outcomes.
+    outcomes: tuple[str, ...] | None = None
+    #: The classes of the environment's state and parameters (``None``: not declared), so that generic code can
+    #: check what it is handed.
+    state_type: type | None = None
+    params_type: type | None = None
+
+    def make_params(self, *args: Any, **kwargs: Any) -> P:
         """Validated parameters (written by subclasses)."""
         raise NotImplementedError
 
@@ -48,12 +70,17 @@ class Environment(Generic[S, P]):
         raise NotImplementedError
 
     # An environment is a static argument of jitted functions: equal configurations
-    # compare and hash equal, so they share compiled code.
-    def __eq__(self, other) -> bool:
-        return type(other) is type(self) and other._config() == self._config()
+    # compare and hash equal, so they share compiled code. ``reset_chunk`` changes the
+    # compiled auto-reset, so it is part of the key.
+    def _static_key(self) -> tuple:
+        return self._config() + (self.reset_chunk,)
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, Environment) and type(other) is type(self)
+                and other._static_key() == self._static_key())
 
     def __hash__(self) -> int:
-        return hash((type(self).__name__,) + self._config())
+        return hash((type(self).__name__,) + self._static_key())
 
     @property
     def num_actions(self) -> int:
@@ -77,19 +104,28 @@ class Environment(Generic[S, P]):
         low, high = self.observation_bounds(params)
         return spaces.Box(low, high, self.observation_shape(params), jnp.float32)
 
-    def observation_bounds(self, params: P):
+    def observation_bounds(self, params: P) -> tuple[Any, Any]:
         """``(low, high)`` arrays (or numbers) bounding every observation (written by subclasses)."""
         raise NotImplementedError
 
     # -- to be written by subclasses -------------------------------------------------
-    def reset_env(self, key, params: P):
+    def reset_env(self, key: jax.Array, params: P) -> tuple[jax.Array, S]:
         raise NotImplementedError
 
-    def step_env(self, key, state: S, action, params: P):
+    def step_env(self, key: jax.Array, state: S, action: Any, params: P) -> Transition:
         raise NotImplementedError
 
-    def observe(self, state: S, params: P):
+    def observe(self, state: S, params: P) -> jax.Array:
         raise NotImplementedError
+
+    # -- hooks for generic code (outside jit; optional) ------------------------------------
+    def render_ansi(self, state: S, params: P) -> str:
+        """One unbatched state as text, one grid row per line, then a status line (written by subclasses)."""
+        raise NotImplementedError(f"{self.name} has no text picture: write render_ansi(state, params)")
+
+    def scene(self, state: S, params: P) -> Scene:
+        """One unbatched host state as the layers of a picture (written by subclasses that can be drawn)."""
+        raise NotImplementedError(f"{self.name} has no picture: write scene(state, params)")
 
     #: Under ``vmap``, the auto-reset draws fresh initial states only for the environments that finished, this
     #: many at a time (:func:`reset_where`); ``None``: :func:`reset_chunk_size` of the batch. A performance
@@ -97,13 +133,13 @@ class Environment(Generic[S, P]):
     reset_chunk: int | None = None
 
     # -- public API ---------------------------------------------------------------------
-    def reset(self, key, params: P | None = None):
+    def reset(self, key: jax.Array, params: P | None = None) -> tuple[jax.Array, S]:
         """Start an episode: ``(obs, state)``."""
         if params is None:
             params = self.default_params
         return self.reset_env(key, params)
 
-    def step(self, key, state: S, action, params: P | None = None):
+    def step(self, key: jax.Array, state: S, action: Any, params: P | None = None) -> Transition:
         """One transition with auto-reset.
 
         Returns ``(obs, state, reward, terminated, truncated, info)``. When the
@@ -124,7 +160,14 @@ class Environment(Generic[S, P]):
         return obs, state, reward, terminated, truncated, info
 
 
-def step_batch(env: "Environment", key, state, action, params, reset_slots: int | None = None):
+def writes(env: Environment, hook: str) -> bool:
+    """Whether ``env``'s class writes the :class:`Environment` hook ``hook`` (``"render_ansi"``, ``"scene"``)
+    instead of inheriting the base's, which raises ``NotImplementedError``."""
+    return getattr(type(env), hook, None) is not getattr(Environment, hook)
+
+
+def step_batch(env: Environment, key: jax.Array, state: Any, action: jax.Array, params: Any,
+               reset_slots: int | None = None) -> Transition:
     """``B`` environments sharing ``params`` stepped at once, with auto-reset.
 
     With ``reset_slots=None`` this is ``vmap(env.step)`` over ``split(key, B)``.
@@ -173,7 +216,7 @@ def reset_chunk_size(batch: int) -> int:
     return max(RESET_CHUNK_MIN, min(RESET_CHUNK_MAX, batch // 32))
 
 
-def reset_where(env: "Environment", done, key, params, obs, state):
+def reset_where(env: Environment, done: jax.Array, key: jax.Array, params: Any, obs: Any, state: Any) -> Any:
     """``(obs, state)``, replaced by ``env.reset_env(key, params)`` where ``done``: the auto-reset of
     :meth:`Environment.step`.
 
@@ -222,7 +265,7 @@ def reset_where(env: "Environment", done, key, params, obs, state):
     return reset(done, key, params, obs, state)
 
 
-def tree_select(pred, on_true: Any, on_false: Any):
+def tree_select(pred: Any, on_true: Any, on_false: Any) -> Any:
     """``jnp.where(pred, a, b)`` leaf by leaf over two pytrees of the same structure.
 
     ``pred`` may be batched (shape ``[B]``) over leaves of shape ``[B, ...]``.

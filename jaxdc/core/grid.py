@@ -12,9 +12,11 @@ outside jit.
 from __future__ import annotations
 
 import math
+from typing import Any
 
-import numpy as np
+import jax
 import jax.numpy as jnp
+import numpy as np
 
 from jaxdc.core.validate import check_int
 
@@ -50,7 +52,7 @@ RISK_PRESETS: dict[str, tuple[float, float, float, float]] = {
 }
 
 
-def move(pos, action, grid_size: int):
+def move(pos: Any, action: Any, grid_size: int) -> jax.Array:
     """Apply ``action`` to ``pos`` (``[..., 2]`` int), clipped per axis (section 4.3).
 
     "If a_t makes the agent go out of a grid boundary, the agent stays along
@@ -60,7 +62,7 @@ def move(pos, action, grid_size: int):
     return jnp.clip(pos + jnp.asarray(DELTAS_NP)[action], 0, grid_size - 1)
 
 
-def clip_action(action):
+def clip_action(action: Any) -> tuple[jax.Array, jax.Array]:
     """``(action, invalid)``: an action outside ``0 .. 8`` is clipped into that range (below 0 -> ``stay``,
     above 8 -> ``down_right``) and flagged, so that the functional step has one defined behaviour under jit.
 
@@ -70,22 +72,22 @@ def clip_action(action):
     return jnp.clip(action, 0, NUM_ACTIONS - 1), (action < 0) | (action >= NUM_ACTIONS)
 
 
-def neighbours(pos, grid_size: int):
+def neighbours(pos: Any, grid_size: int) -> jax.Array:
     """All 9 successors of ``pos``, shape ``[..., 9, 2]`` (index = action)."""
     return jnp.clip(pos[..., None, :] + jnp.asarray(DELTAS_NP), 0, grid_size - 1)
 
 
-def chebyshev(a, b):
+def chebyshev(a: Any, b: Any) -> jax.Array:
     """Chebyshev distance ``max(|dx|, |dy|)``: the number of moves on the 8-connected grid."""
     return jnp.max(jnp.abs(a - b), axis=-1)
 
 
-def manhattan(a, b):
+def manhattan(a: Any, b: Any) -> jax.Array:
     """Manhattan distance ``|dx| + |dy|`` (the text of section 4.4.2 names it for CF)."""
     return jnp.sum(jnp.abs(a - b), axis=-1)
 
 
-def shortest_move(pos, target, grid_size: int, rule: str = "diagonal"):
+def shortest_move(pos: Any, target: Any, grid_size: int, rule: str = "diagonal") -> jax.Array:
     """The action that follows a shortest (fewest-moves) path from ``pos`` to ``target``.
 
     Algorithm 8: "Select the a that minimizes ``max(|x_z - x_i*|, |y_z - y_i*|)``".
@@ -119,19 +121,19 @@ def _step_table() -> np.ndarray:
 _STEP_TO_ACTION = _step_table()
 
 
-def cell_coords(grid_size: int):
+def cell_coords(grid_size: int) -> jax.Array:
     """``[N*N, 2]`` (row, col) of every cell in row-major order."""
     r, c = np.divmod(np.arange(grid_size * grid_size), grid_size)
     return jnp.asarray(np.stack([r, c], axis=-1).astype(np.int32))
 
 
-def flat_index(pos, grid_size: int):
+def flat_index(pos: Any, grid_size: int) -> jax.Array:
     """Row-major flat index of ``pos`` (``[..., 2]`` = (row, col))."""
     pos = jnp.asarray(pos)
     return (pos[..., 0] * grid_size + pos[..., 1]).astype(jnp.int32)
 
 
-def unflat_index(index, grid_size: int):
+def unflat_index(index: Any, grid_size: int) -> jax.Array:
     """The ``(row, col)`` of a row-major flat index, shape ``[..., 2]``."""
     index = jnp.asarray(index)
     return jnp.stack([index // grid_size, index % grid_size], axis=-1).astype(jnp.int32)
@@ -166,7 +168,7 @@ def risk_map(preset: str, grid_size: int = 8) -> np.ndarray:
     return rho
 
 
-def check_grid_size(grid_size, max_cells: int | None = None) -> int:
+def check_grid_size(grid_size: Any, max_cells: int | None = None) -> int:
     """Validate a grid size (an int >= 2; with ``max_cells``, also ``N * N <= max_cells``)."""
     n = check_int("grid_size", grid_size, 2)
     if max_cells is not None and n**2 > max_cells:
@@ -174,7 +176,7 @@ def check_grid_size(grid_size, max_cells: int | None = None) -> int:
     return n
 
 
-def validate_risk_map(risk, grid_size: int | None = None) -> np.ndarray:
+def validate_risk_map(risk: Any, grid_size: int | None = None) -> np.ndarray:
     """Check a user risk map: a square ``N x N`` array of finite values in ``[0, 1]`` with base risk 0."""
     bad = _first_non_number(risk)
     if bad is not None:
@@ -226,7 +228,7 @@ def _first_non_number(value, where=()):
     return None
 
 
-def as_risk_map(risk, grid_size: int = 8) -> np.ndarray:
+def as_risk_map(risk: Any, grid_size: int = 8) -> np.ndarray:
     """A preset name or a user array -> a validated ``[N, N]`` float32 risk map."""
     if isinstance(risk, str):
         return risk_map(risk, grid_size)

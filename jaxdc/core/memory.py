@@ -9,6 +9,7 @@ limit on an accelerator, the available host memory on the CPU. Set
 from __future__ import annotations
 
 import os
+from typing import Any
 
 import jax
 import numpy as np
@@ -38,7 +39,7 @@ def available_bytes() -> int | None:
         return None
 
 
-def tree_bytes(tree) -> int:
+def tree_bytes(tree: Any) -> int:
     """Bytes of the arrays (or ``ShapeDtypeStruct``\\ s) of a pytree."""
     return sum(int(np.prod(x.shape)) * np.dtype(x.dtype).itemsize for x in jax.tree_util.tree_leaves(tree))
 

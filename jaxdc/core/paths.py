@@ -57,6 +57,8 @@ risk maps.
 
 from __future__ import annotations
 
+from typing import Any
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -189,7 +191,7 @@ def _check_path_risk(path_risk) -> bool:
     return path_risk == "departed"
 
 
-def safest_paths(risk, path_risk: str = "departed", tie_tol: float = 1e-6) -> PathTable:
+def safest_paths(risk: Any, path_risk: str = "departed", tie_tol: float = 1e-6) -> PathTable:
     """All-pairs safest paths of an ``N x N`` risk map (section 4.4.1, Fig. 4.2b).
 
     Runs a reverse Dijkstra per target inside :func:`jax.lax.while_loop`,
@@ -234,6 +236,6 @@ def _safest_paths(risk, departed: bool, tie_tol) -> PathTable:
     return PathTable(success=jnp.exp(-cost).T, next_action=action.T, steps=steps.T)
 
 
-def path_to(table: PathTable, src, dst):
+def path_to(table: PathTable, src: Any, dst: Any) -> tuple[jax.Array, jax.Array, jax.Array]:
     """``(success, next_action, steps)`` of the safest path from flat cell ``src`` to ``dst``."""
     return table.success[src, dst], table.next_action[src, dst], table.steps[src, dst]

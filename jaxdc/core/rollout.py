@@ -15,13 +15,13 @@ is vmapped here and may close over network parameters, path tables and so on.
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
 
 from jaxdc.core import memory
-from jaxdc.core.env import tree_select
+from jaxdc.core.env import Environment, tree_select
 
 #: Default number of lanes (episodes stepped at once).
 DEFAULT_LANES = 2048
@@ -31,7 +31,8 @@ def _take(tree, index):
     return jax.tree_util.tree_map(lambda x: x[index], tree)
 
 
-def run_episodes(env, params, policy: Callable, key, num_episodes: int, lanes: int | None = None):
+def run_episodes(env: Environment, params: Any, policy: Callable, key: jax.Array, num_episodes: int,
+                 lanes: int | None = None) -> Any:
     """Play ``num_episodes`` episodes with ``policy``; return their final states, batched ``[num_episodes]``.
 
     Episodes end when terminated or truncated (``params``' step cap); they are

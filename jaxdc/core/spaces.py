@@ -10,6 +10,8 @@ and ``env.action_space(params)`` work on jaxdc. Bounds are finite NumPy arrays
 
 from __future__ import annotations
 
+from typing import Any
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -18,7 +20,7 @@ import numpy as np
 class Discrete:
     """The integers ``0 .. n - 1`` (an action space)."""
 
-    def __init__(self, num_categories: int):
+    def __init__(self, num_categories: int) -> None:
         if isinstance(num_categories, bool) or not isinstance(num_categories, (int, np.integer)) \
                 or num_categories < 1:
             raise ValueError(f"num_categories must be an int >= 1, got {num_categories!r}")
@@ -26,11 +28,11 @@ class Discrete:
         self.shape: tuple[int, ...] = ()
         self.dtype = jnp.int32
 
-    def sample(self, rng) -> jax.Array:
+    def sample(self, rng: jax.Array) -> jax.Array:
         """A uniform random element."""
         return jax.random.randint(rng, shape=self.shape, minval=0, maxval=self.n).astype(self.dtype)
 
-    def contains(self, x) -> jax.Array:
+    def contains(self, x: Any) -> jax.Array:
         """Whether ``x`` is an integer in ``0 .. n - 1`` (a jittable boolean)."""
         x = jnp.asarray(x)
         return jnp.logical_and(jnp.logical_and(x >= 0, x < self.n), x == jnp.round(x))
@@ -42,7 +44,7 @@ class Discrete:
 class Box:
     """Arrays of ``shape`` with every entry in ``[low, high]`` (finite bounds)."""
 
-    def __init__(self, low, high, shape: tuple[int, ...], dtype=jnp.float32):
+    def __init__(self, low: Any, high: Any, shape: tuple[int, ...], dtype: Any = jnp.float32) -> None:
         self.shape = tuple(int(s) for s in shape)
         self.low = np.broadcast_to(np.asarray(low, np.float32), self.shape).copy()
         self.high = np.broadcast_to(np.asarray(high, np.float32), self.shape).copy()
@@ -52,11 +54,11 @@ class Box:
             raise ValueError("Box bounds must satisfy low <= high")
         self.dtype = dtype
 
-    def sample(self, rng) -> jax.Array:
+    def sample(self, rng: jax.Array) -> jax.Array:
         """A uniform random array in the box."""
         return jax.random.uniform(rng, shape=self.shape, minval=self.low, maxval=self.high).astype(self.dtype)
 
-    def contains(self, x) -> jax.Array:
+    def contains(self, x: Any) -> jax.Array:
         """Whether ``x`` has the shape and lies in the bounds (a jittable boolean)."""
         x = jnp.asarray(x)
         if x.shape != self.shape:

@@ -24,6 +24,9 @@ candidates. Ties are broken by the caller, by the lowest index
 
 from __future__ import annotations
 
+from typing import Any
+
+import jax
 import jax.numpy as jnp
 
 #: Criteria in the thesis' order. GI (Eq. 3.8) inserts anywhere, so it is not an append criterion.
@@ -37,7 +40,7 @@ def _pairwise(p_next, p_pair, beta, mask, p_end):
     return after, other
 
 
-def total_loss(p_next, p_pair, beta, mask, p_end=1.0):
+def total_loss(p_next: Any, p_pair: Any, beta: Any, mask: Any, p_end: Any = 1.0) -> jax.Array:
     """Eq. 3.5, ``sum_{v != u} delta(u, v)``, as a matrix-vector product (no ``[K, K]`` temporary).
 
     ``sum_v g(v) - g(u) - p_end p_next[u] (sum_v p_pair[u, v] beta[v] - p_pair[u, u] beta[u])``
@@ -51,13 +54,13 @@ def total_loss(p_next, p_pair, beta, mask, p_end=1.0):
 
 def append_scores(
     criterion: str,
-    p_next,
-    p_pair,
-    beta,
-    mask,
-    p_end=1.0,
+    p_next: Any,
+    p_pair: Any,
+    beta: Any,
+    mask: Any,
+    p_end: Any = 1.0,
     lpg_init: float = 0.0,
-):
+) -> jax.Array:
     """Score every candidate ``u`` for being appended next (higher is better).
 
     Args:

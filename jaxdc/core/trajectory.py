@@ -9,17 +9,18 @@ the states from the initial one up to the last (terminal or truncated) one.
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from jaxdc.core import memory
+from jaxdc.core.env import Environment
 from jaxdc.core.validate import check_positive_int
 
 
-def play_episode(env, params, policy: Callable, key, max_steps: int) -> list:
+def play_episode(env: Environment, params: Any, policy: Callable, key: jax.Array, max_steps: int) -> list:
     """States ``s_0 .. s_T`` of one episode (unbatched pytrees on the host), ``T <= max_steps``.
 
     The reset uses ``split(key)[0]``; step ``t`` draws its action and its

@@ -10,7 +10,7 @@ restored training state.
 
 from __future__ import annotations
 
-from typing import Callable, NamedTuple
+from typing import Any, Callable, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -27,7 +27,7 @@ class Mismatch(NamedTuple):
     want: tuple = ()
 
 
-def mismatch(template, tree, key: Callable = jax.tree_util.keystr) -> Mismatch | None:
+def mismatch(template: Any, tree: Any, key: Callable = jax.tree_util.keystr) -> Mismatch | None:
     """``None`` if ``tree`` has ``template``'s leaf paths and shapes, else the :class:`Mismatch`.
 
     ``key`` turns a leaf's path (``jax.tree_util`` path entries) into its name.
@@ -42,7 +42,7 @@ def mismatch(template, tree, key: Callable = jax.tree_util.keystr) -> Mismatch |
     return None
 
 
-def check_like(template, params, source: str, what: str, hint: str = ""):
+def check_like(template: Any, params: Any, source: str, what: str, hint: str = "") -> Any:
     """``params`` as float32 arrays if it has exactly ``template``'s structure and shapes, else ``ValueError``.
 
     ``source`` names the file, ``what`` the network (e.g. ``"a omn_conn network

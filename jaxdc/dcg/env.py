@@ -33,7 +33,8 @@ of sections 5.4.3-5.4.5), kept in the state so that everything stays pure.
 
 from __future__ import annotations
 
-import math
+import dataclasses
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -41,11 +42,20 @@ import numpy as np
 from flax import struct
 
 from jaxdc.core import grid
-from jaxdc.core.energy import ENERGY_METRICS, check_budget, energy_used, observed_energy, observed_energy_bound, step_energy
-from jaxdc.core.env import Environment
+from jaxdc.core.energy import (
+    ENERGY_METRICS,
+    check_budget,
+    energy_used,
+    observed_energy,
+    observed_energy_bound,
+    step_energy,
+)
+from jaxdc.core.env import Environment, Transition
 from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, uniform_index
+from jaxdc.core.scene import Scene
 from jaxdc.core.validate import INT32_MAX, check_int, is_int
 from jaxdc.dcg import opponents as opp_lib
+from jaxdc.dcg import picture
 from jaxdc.dcg.opponents import CHASE_TIES, STANDARD_STRATEGIES, OpponentState
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
@@ -89,7 +99,7 @@ class EnvState:
     ep_energy: jax.Array  # int32 energy consumed so far (see ENERGY_METRICS)
 
 
-def _check_choice(name: str, value, choices) -> str:
+def _check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
     if value not in choices:
         raise ValueError(f"{name} must be one of {choices}, got {value!r}")
     return value
@@ -136,11 +146,15 @@ class DCG(Environment[EnvState, EnvParams]):
         ``min_total_reward`` is for the item count.
     """
 
+    outcomes: tuple[str, ...] = OUTCOMES
+    state_type = EnvState
+    params_type = EnvParams
+
     def __init__(
         self,
         grid_size: int = 5,
         total_reward: int | None = None,
-        strategies=STANDARD_STRATEGIES,
+        strategies: Any = STANDARD_STRATEGIES,
         history: int = 10,
         obs_history: bool = True,
         history_fill: str = "zeros",
@@ -155,7 +169,7 @@ class DCG(Environment[EnvState, EnvParams]):
         opponent_enters_base: bool = True,
         caught_energy: str = "charged",
         min_reward_area: int | None = None,
-    ):
+    ) -> None:
         self.grid_size = grid.check_grid_size(grid_size, max_cells=MAX_RANGE)  # the drop's uniform_index range
         if reward_area is not None:
             reward_area = check_int("reward_area", reward_area, 1)
@@ -258,9 +272,10 @@ class DCG(Environment[EnvState, EnvParams]):
             inside[0] = False
         return np.flatnonzero(inside).astype(np.int32)
 
-    def _reward_area_table(self):
+    def _reward_area_table(self) -> tuple[jax.Array, jax.Array]:
         """``(table, counts)`` for sizes ``min_reward_area .. reward_area``: the cells of each square
         (:meth:`reward_area_cells`), padded to the largest, and how many each has."""
+        assert self.min_reward_area is not None and self.reward_area is not None  # only built with both
         areas = [self.reward_area_cells(s) for s in range(self.min_reward_area, self.reward_area + 1)]
         table = np.zeros((len(areas), max(a.size for a in areas)), np.int32)
         for i, a in enumerate(areas):
@@ -270,7 +285,7 @@ class DCG(Environment[EnvState, EnvParams]):
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, 2 + (self.history if self.obs_history else 0))
 
-    def observation_bounds(self, params: EnvParams):
+    def observation_bounds(self, params: EnvParams) -> tuple[np.ndarray, np.ndarray]:
         """Items in ``[0, total_reward]``; agent and history planes in ``[-1, max_energy]`` (the opponent is -1;
         ``max_steps`` stands for unlimited energy)."""
         shape = self.observation_shape(params)
@@ -280,7 +295,7 @@ class DCG(Environment[EnvState, EnvParams]):
         return low, high
 
     # -- dynamics ---------------------------------------------------------------------
-    def reset_env(self, key, params: EnvParams):
+    def reset_env(self, key: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
         """The initial state of section 5.3: collector in the base, random opponent, items and strategy."""
         n, cells = self.grid_size, self.grid_size**2
         k_items, k_opp, k_target, k_strat = jax.random.split(key, 4)
@@ -321,10 +336,10 @@ class DCG(Environment[EnvState, EnvParams]):
         )
         if self.history_fill == "first":
             plane = self.agent_plane(state, params)
-            state = state.replace(history=jnp.repeat(plane[..., None], self.history, axis=-1))
+            state = dataclasses.replace(state, history=jnp.repeat(plane[..., None], self.history, axis=-1))
         return self.observe(state, params), state
 
-    def opponent_move(self, key, state: EnvState, params: EnvParams):
+    def opponent_move(self, key: jax.Array, state: EnvState, params: EnvParams) -> tuple[jax.Array, OpponentState]:
         """The opponent's action ``o_t`` and its new state (moved), by this episode's strategy."""
         branches = [
             lambda k, o, g, p, f=s.fn: tuple(jax.tree_util.tree_map(jnp.asarray, f(k, o, g, p)))
@@ -339,7 +354,7 @@ class DCG(Environment[EnvState, EnvParams]):
             action = jnp.where(blocked, grid.STAY, action)
         return action, opp.replace(pos=pos)
 
-    def step_env(self, key, state: EnvState, action, params: EnvParams):
+    def step_env(self, key: jax.Array, state: EnvState, action: Any, params: EnvParams) -> Transition:
         """One transition of section 5.3, without auto-reset."""
         action, invalid = grid.clip_action(action)
         o_t, opp = self.opponent_move(key, state, params)
@@ -371,7 +386,8 @@ class DCG(Environment[EnvState, EnvParams]):
             RUNNING,
         ).astype(jnp.int32)
         history = jnp.concatenate([self.agent_plane(state, params)[..., None], state.history[..., :-1]], axis=-1)
-        new_state = state.replace(
+        new_state = dataclasses.replace(
+            state,
             pos=pos, energy=energy, items=items, opponent=opp, history=history, time=time, outcome=outcome,
             ep_reward=state.ep_reward + reward, ep_energy=state.ep_energy + used.astype(jnp.int32),
         )
@@ -389,12 +405,12 @@ class DCG(Environment[EnvState, EnvParams]):
         return self.observe(new_state, params), new_state, reward, terminated, truncated, info
 
     # -- observations -----------------------------------------------------------------
-    def opponent_hidden(self, state: EnvState):
+    def opponent_hidden(self, state: EnvState) -> jax.Array:
         """Whether the collector cannot see the opponent: a fog-hiding strategy and the collector in the fog."""
         hides = jnp.asarray([s.hides_in_fog for s in self._strategies])
         return hides[state.strategy] & opp_lib.in_fog(state.pos)
 
-    def agent_plane(self, state: EnvState, params: EnvParams):
+    def agent_plane(self, state: EnvState, params: EnvParams) -> jax.Array:
         """``M^agent`` as the collector observes it (section 5.4.1), ``[N, N]``.
 
         The collector's energy at its cell, -1 at the opponent's (drawn over the
@@ -406,57 +422,25 @@ class DCG(Environment[EnvState, EnvParams]):
         rows, cols = jnp.arange(n)[:, None], jnp.arange(n)[None, :]
         me = (rows == state.pos[0]) & (cols == state.pos[1])
         opp = (rows == state.opponent.pos[0]) & (cols == state.opponent.pos[1]) & ~self.opponent_hidden(state)
-        return jnp.where(opp, -1.0, jnp.where(me, observed_energy(state.energy, params.max_steps), 0.0)).astype(jnp.float32)
+        energy = observed_energy(state.energy, params.max_steps)
+        return jnp.where(opp, -1.0, jnp.where(me, energy, 0.0)).astype(jnp.float32)
 
-    def planes(self, state: EnvState, params: EnvParams):
+    def planes(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The current state ``s_t`` as two planes ``[N, N, 2]``: ``M^item``, ``M^agent``."""
         return jnp.stack([state.items, self.agent_plane(state, params)], axis=-1)
 
-    def observe_history(self, state: EnvState):
-        """The history ``h``: the ``k`` previous observed agent planes, ``[N, N, k]`` (newest first)."""
-        return state.history
-
-    def observe(self, state: EnvState, params: EnvParams):
+    def observe(self, state: EnvState, params: EnvParams) -> jax.Array:
         """``[N, N, 2 + k]`` (planes then history) with ``obs_history``, else ``[N, N, 2]``."""
         planes = self.planes(state, params)
         if self.obs_history:
             return jnp.concatenate([planes, state.history], axis=-1)
         return planes
 
-    # -- text rendering (outside jit) ----------------------------------------------------
+    # -- pictures (outside jit; jaxdc.dcg.picture) ----------------------------------------
     def render_ansi(self, state: EnvState, params: EnvParams) -> str:
-        """Text grid: ``C`` collector, ``O`` opponent (``X`` both on one cell), ``B`` base, item digits
-        (``*`` above 9), ``.`` empty; ``~`` marks fog cells while the opponent is hidden from the collector.
-        One row per line, then a status line."""
-        state = jax.device_get(state)
-        items = np.asarray(state.items)
-        me = tuple(int(p) for p in state.pos)
-        op = tuple(int(p) for p in state.opponent.pos)
-        hidden = bool(self.opponent_hidden(state))
-        rows = []
-        for r in range(self.grid_size):
-            cells = []
-            for c in range(self.grid_size):
-                if (r, c) == me and (r, c) == op:
-                    ch = "X"
-                elif (r, c) == me:
-                    ch = "C"
-                elif (r, c) == op:
-                    ch = "O"
-                elif (r, c) == (0, 0):
-                    ch = "B"
-                elif items[r, c] > 0:
-                    ch = "*" if items[r, c] > 9 else str(int(round(float(items[r, c]))))
-                elif hidden and (r == 0 or c == 0):
-                    ch = "~"
-                else:
-                    ch = "."
-                cells.append(ch)
-            rows.append(" ".join(cells))
-        energy = float(state.energy)
-        rows.append(
-            f"energy {energy:g}/{float(params.max_energy):g}, reward {float(state.ep_reward):g}, "
-            f"step {int(state.time)}, opponent {self.strategies[int(state.strategy)]}"
-            + (" (hidden)" if hidden else "")
-        )
-        return "\n".join(rows) + "\n"
+        """Text grid (:func:`jaxdc.dcg.picture.render_ansi`): ``C`` collector, ``O`` opponent, ``B`` base, items."""
+        return picture.render_ansi(self, state, params)
+
+    def scene(self, state: EnvState, params: EnvParams) -> Scene:
+        """The layers of a frame (:func:`jaxdc.dcg.picture.scene`): items, collector, opponent, fog."""
+        return picture.scene(self, state, params)

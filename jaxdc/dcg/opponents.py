@@ -185,3 +185,5 @@ register_strategy("double_blind", with_fog, hides_in_fog=True)
 #: The standard strategy set of section 5.5.1; section 5.5.7 swaps with_fog for double_blind.
 STANDARD_STRATEGIES = ("patrol", "restricted", "with_fog")
 DOUBLE_BLIND_STRATEGIES = ("patrol", "restricted", "double_blind")
+#: The strategies whose play depends on the fog cells (section 5.5.7): a drawn frame hatches those cells.
+FOG_STRATEGIES = ("with_fog", "double_blind")

@@ -22,7 +22,6 @@ stacked channels-last as ``[N, N, 2]``: ``M^item`` (item rewards) and
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import jax
@@ -31,9 +30,17 @@ import numpy as np
 from flax import struct
 
 from jaxdc.core import grid
-from jaxdc.core.energy import ENERGY_METRICS, check_budget, energy_used, observed_energy, observed_energy_bound, step_energy
-from jaxdc.core.env import Environment
+from jaxdc.core.energy import (
+    ENERGY_METRICS,
+    check_budget,
+    energy_used,
+    observed_energy,
+    observed_energy_bound,
+    step_energy,
+)
+from jaxdc.core.env import Environment, Transition
 from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, running_count, uniform_index
+from jaxdc.core.scene import Scene
 from jaxdc.core.validate import INT32_MAX, check_int, check_positive_int, is_int
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
@@ -129,6 +136,10 @@ class DCP(Environment[EnvState, EnvParams]):
     ``max_energy``).
     """
 
+    outcomes: tuple[str, ...] = OUTCOMES
+    state_type = EnvState
+    params_type = EnvParams
+
     def __init__(
         self,
         grid_size: int = 8,
@@ -140,14 +151,15 @@ class DCP(Environment[EnvState, EnvParams]):
         item_order: str = "drop",
         min_total_reward: int | None = None,
         observation: str = "thesis",
-    ):
+    ) -> None:
         self.grid_size = grid.check_grid_size(grid_size, max_cells=MAX_RANGE)  # the drop's uniform_index range
         check_int("total_reward", total_reward, 1, MAX_TOTAL_REWARD)
         if min_total_reward is not None:
             if not is_int(min_total_reward):
                 raise TypeError(f"min_total_reward must be None or an int, got {min_total_reward!r}")
             if not 1 <= min_total_reward <= total_reward:
-                raise ValueError(f"min_total_reward must be in [1, total_reward={total_reward}], got {min_total_reward}")
+                raise ValueError(
+                    f"min_total_reward must be in [1, total_reward={total_reward}], got {min_total_reward}")
         if start not in STARTS:
             raise ValueError(f"start must be one of {STARTS}, got {start!r}")
         if energy_metric not in ENERGY_METRICS:
@@ -180,7 +192,7 @@ class DCP(Environment[EnvState, EnvParams]):
         )
 
     # -- parameters -------------------------------------------------------------------
-    def make_params(self, risk="high", energy=(8.0, 16.0), max_steps: int = 1000) -> EnvParams:
+    def make_params(self, risk: Any = "high", energy: Any = (8.0, 16.0), max_steps: int = 1000) -> EnvParams:
         """Validated :class:`EnvParams`.
 
         Args:
@@ -202,7 +214,7 @@ class DCP(Environment[EnvState, EnvParams]):
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, 2 if self.observation == "thesis" else 4)
 
-    def observation_bounds(self, params: EnvParams):
+    def observation_bounds(self, params: EnvParams) -> tuple[float, np.ndarray]:
         """Items in ``[0, total_reward]``; the energy plane in ``[0, observed_energy_bound(...)]`` (the budget, or
         ``max_steps`` for an unlimited one); ``"general"``: both energy planes over :data:`ENERGY_SCALE`, the
         risk plane in ``[0, 1]``."""
@@ -239,7 +251,7 @@ class DCP(Environment[EnvState, EnvParams]):
         return map_id, init_e, max_e
 
     # -- dynamics ---------------------------------------------------------------------
-    def reset_env(self, key, params: EnvParams):
+    def reset_env(self, key: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
         """A random initial state (section 4.3): multinomial items, then the start cell."""
         n = self.grid_size
         instance = {}
@@ -281,7 +293,7 @@ class DCP(Environment[EnvState, EnvParams]):
         )
         return self.observe(state, params), state
 
-    def step_env(self, key, state: EnvState, action, params: EnvParams):
+    def step_env(self, key: jax.Array, state: EnvState, action: Any, params: EnvParams) -> Transition:
         """One transition of section 4.3, without auto-reset."""
         n = self.grid_size
         action, invalid = grid.clip_action(action)
@@ -323,7 +335,7 @@ class DCP(Environment[EnvState, EnvParams]):
         }
         return self.observe(new_state, params), new_state, reward, terminated, truncated, info
 
-    def observe(self, state: EnvState, params: EnvParams):
+    def observe(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The two planes ``[N, N, 2]``: item rewards and the energy at the agent's cell (section 4.5.1; an
         unlimited budget shows as ``max_steps``, :func:`~jaxdc.core.energy.observed_energy`). ``"general"``:
         then the episode's risk map and its maximum energy on every cell, energies over :data:`ENERGY_SCALE`."""
@@ -339,17 +351,24 @@ class DCP(Environment[EnvState, EnvParams]):
     # -- text rendering (outside jit) ----------------------------------------------------
     def render_ansi(self, state: EnvState, params: EnvParams) -> str:
         """Text grid (:func:`render_ansi`): ``A`` agent, ``B`` base, item digits, ``.`` empty, then a status line."""
-        return render_ansi(state, params)
+        return render_ansi(state, params if state.max_energy is None else params.replace(max_energy=state.max_energy))
+
+    def scene(self, state: EnvState, params: EnvParams) -> Scene:
+        """The frame of section 4.3 (:func:`jaxdc.viewer.render_frame`): the risk map with its values (Fig. 4.1b),
+        the items, the agent with its energy."""
+        return Scene(items=np.asarray(state.items), agent=np.asarray(state.pos), energy=state.energy,
+                     max_energy=self.max_energy_of(state, params), reward=state.ep_reward, step=int(state.time),
+                     outcome=OUTCOMES[int(state.outcome)], risk=np.asarray(self.risk_of(state, params)))
 
 
-def _fmt(x) -> str:
+def _fmt(x: Any) -> str:
     x = float(x)
     if np.isinf(x):
         return "inf"
     return str(int(x)) if x == int(x) else f"{x:g}"
 
 
-def render_ansi(state, params) -> str:
+def render_ansi(state: Any, params: Any) -> str:
     """Text grid of a DCP-like state (outside jit): ``B`` base, ``A`` agent, item reward digits
     (``*`` above 9; ``+`` below 1), ``.`` empty; one row per line, then a status line."""
     items = np.asarray(state.items)
@@ -379,7 +398,7 @@ def render_ansi(state, params) -> str:
     return "\n".join(rows) + "\n"
 
 
-def check_energy(energy) -> tuple[float, float]:
+def check_energy(energy: Any) -> tuple[float, float]:
     """Validate ``(initial, maximum)`` energy: ``0 < initial <= maximum``, each finite (at most
     :data:`~jaxdc.core.energy.MAX_FINITE_ENERGY`) or ``inf``."""
     try:

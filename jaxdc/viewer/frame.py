@@ -9,13 +9,15 @@ fog strategies of section 5.5.7 (``with_fog``, ``double_blind``), the fog cells
 of the top and left edges hatched in grey. A title line (the step by default)
 and a status line (energy, reward, outcome, opponent strategy) frame the grid.
 
-The layout is fixed in pixels (:data:`CELL_PX` per cell), so that
+The viewer knows no problem: each environment hands it a
+:class:`~jaxdc.core.scene.Scene` (:meth:`~jaxdc.core.env.Environment.scene`), the
+layers to draw. The layout is fixed in pixels (:data:`CELL_PX` per cell), so that
 :func:`cell_center` gives the pixel of any cell's centre.
 """
 
 from __future__ import annotations
 
-import sys
+from typing import Any
 
 import jax
 import numpy as np
@@ -24,9 +26,8 @@ from matplotlib.colors import LinearSegmentedColormap, PowerNorm
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Rectangle
 
-from jaxdc.dcg import opponents as opp_lib
-from jaxdc.dcg.env import DCG
-from jaxdc.dcp.env import DCP
+from jaxdc.core.env import Environment, writes
+from jaxdc.core.scene import Scene
 
 #: Pixels per grid cell (at least; small grids get bigger cells, see :func:`cell_px`), around the
 #: grid, above it (title) and below it (status line); the grid is at least MIN_SIDE_PX wide.
@@ -35,8 +36,6 @@ DPI = 100
 #: Colours of the pieces (RGB hex).
 COLORS = {"base": "#5cb85c", "item": "#f0c419", "agent": "#1f5fbf", "opponent": "#d62728", "fog": "#9a9a9a",
           "grid": "#c8c8c8"}
-#: Strategies whose fog cells (row 0 or column 0) are drawn.
-FOG_STRATEGIES = ("with_fog", "double_blind")
 _RISK_CMAP = LinearSegmentedColormap.from_list("jaxdc_risk", ["#ffffff", "#fdd49e", "#fc8d59", "#b30000"])
 _PT = 72.0 / DPI  # points per pixel
 
@@ -59,7 +58,7 @@ def cell_center(grid_size: int, row: int, col: int) -> tuple[int, int]:
     return TITLE_PX + int((row + 0.5) * cell), MARGIN_PX + int((col + 0.5) * cell)
 
 
-def _fmt(x) -> str:
+def _fmt(x: Any) -> str:
     x = float(x)
     if np.isinf(x):
         return "\u221e"
@@ -70,20 +69,21 @@ def _unbatched_hint() -> str:
     return "pass one unbatched state, e.g. jax.tree_util.tree_map(lambda x: x[i], states)"
 
 
-def check_frame_input(env, params, state):
-    """Host copies ``(params, state)`` after checking that they belong to ``env`` and are unbatched.
+def check_frame_input(env: Any, params: Any, state: Any) -> tuple[Any, Any, Scene]:
+    """Host copies ``(params, state)`` and their :class:`~jaxdc.core.scene.Scene`, after checking that they belong
+    to ``env`` (an environment that writes ``scene``) and are unbatched.
 
     Raises ``TypeError``/``ValueError`` naming what to pass instead, before any drawing.
     """
-    if not isinstance(env, (DCP, DCG)):
-        raise TypeError(f"env must be a jaxdc DCP or DCG environment, got {type(env).__name__}")
-    state_cls = sys.modules[type(env).__module__].EnvState
-    if not isinstance(state, state_cls):
-        raise TypeError(f"state must be a {type(env).__name__} EnvState ({state_cls.__module__}), "
-                        f"got {type(state).__name__}")
-    params_cls = sys.modules[type(env).__module__].EnvParams
-    if not isinstance(params, params_cls):
-        raise TypeError(f"params must be a {type(env).__name__} EnvParams ({params_cls.__module__}; "
+    if not isinstance(env, Environment) or not writes(env, "scene"):
+        raise TypeError(f"env must be a jaxdc environment that draws its states (a DCP or DCG environment), "
+                        f"got {type(env).__name__}")
+    name = type(env).__name__
+    state_cls, params_cls = env.state_type, env.params_type
+    if state_cls is not None and not isinstance(state, state_cls):
+        raise TypeError(f"state must be a {name} EnvState ({state_cls.__module__}), got {type(state).__name__}")
+    if params_cls is not None and not isinstance(params, params_cls):
+        raise TypeError(f"params must be a {name} EnvParams ({params_cls.__module__}; "
                         f"env.make_params(...)), got {type(params).__module__}.{type(params).__name__}")
     params, state = jax.device_get((params, state))
     n = env.grid_size
@@ -93,36 +93,26 @@ def check_frame_input(env, params, state):
     if items != (n, n) or pos != (2,):
         raise ValueError(f"state has items of shape {items} and pos of shape {pos}, but the env's grid is "
                          f"{n} x {n}: expected items ({n}, {n}) and pos (2,)")
-    for name, p in (("pos", state.pos), ("opponent pos", getattr(getattr(state, "opponent", None), "pos", None))):
+    scene = env.scene(state, params)
+    for what, p in (("pos", scene.agent), ("opponent pos", scene.opponent)):
         if p is not None and not all(0 <= int(v) < n for v in np.asarray(p)):
-            raise ValueError(f"{name} {tuple(int(v) for v in np.asarray(p))} is outside the {n} x {n} grid")
-    risk = getattr(params, "risk", None)
-    if risk is not None and np.shape(risk) != (n, n):
-        what = "params are batched" if np.ndim(risk) == 3 else "params do not match the env"
-        raise ValueError(f"{what}: risk map of shape {np.shape(risk)}, expected ({n}, {n}); "
+            raise ValueError(f"{what} {tuple(int(v) for v in np.asarray(p))} is outside the {n} x {n} grid")
+    if scene.risk is not None and np.shape(scene.risk) != (n, n):
+        what = "params are batched" if np.ndim(scene.risk) == 3 else "params do not match the env"
+        raise ValueError(f"{what}: risk map of shape {np.shape(scene.risk)}, expected ({n}, {n}); "
                          f"pass the env's unbatched EnvParams (env.make_params(...))")
-    return params, state
+    return params, state, scene
 
 
-def _status(env, params, state) -> str:
-    names = sys.modules[type(env).__module__].OUTCOMES
-    parts = [f"energy {_fmt(state.energy)}/{_fmt(params.max_energy)}", f"reward {_fmt(state.ep_reward)}"]
-    if isinstance(env, DCG):
-        parts.append(f"opponent {env.strategies[int(state.strategy)]}")
-    outcome = names[int(state.outcome)]
-    if outcome != "running":
-        parts.append(outcome)
+def _status(scene: Scene) -> str:
+    parts = [f"energy {_fmt(scene.energy)}/{_fmt(scene.max_energy)}", f"reward {_fmt(scene.reward)}"]
+    parts.extend(scene.notes)
+    if scene.outcome != "running":
+        parts.append(scene.outcome)
     return "  \u00b7  ".join(parts)
 
 
-def _fog(env, state) -> tuple[bool, bool]:
-    """``(draw the fog, opponent hidden)`` for a DCG state."""
-    name = env.strategies[int(state.strategy)]
-    hides = opp_lib.get_strategies((name,))[0].hides_in_fog
-    return name in FOG_STRATEGIES or hides, bool(hides and opp_lib.in_fog(np.asarray(state.pos)))
-
-
-def render_frame(env, params, state, *, title: str | None = None) -> np.ndarray:
+def render_frame(env: Environment, params: Any, state: Any, *, title: str | None = None) -> np.ndarray:
     """One unbatched DCP or DCG state as an RGB picture, ``uint8 [H, W, 3]``.
 
     Draws the DCP of section 4.3 (risk map with values as in Fig. 4.1b, base,
@@ -134,7 +124,7 @@ def render_frame(env, params, state, *, title: str | None = None) -> np.ndarray:
     """
     if title is not None and not isinstance(title, str):
         raise TypeError(f"title must be a str or None, got {title!r}")
-    params, state = check_frame_input(env, params, state)
+    params, state, scene = check_frame_input(env, params, state)
     n = env.grid_size
     height, width = frame_size(n)
     fig = Figure(figsize=(width / DPI, height / DPI), dpi=DPI, facecolor="white")
@@ -148,40 +138,37 @@ def render_frame(env, params, state, *, title: str | None = None) -> np.ndarray:
     small = min(7.0, max(5.0, 0.17 * cell * _PT))
     label = min(11.0, max(6.0, 0.26 * cell * _PT))
 
-    risk = getattr(params, "risk", None)
-    if risk is not None:
-        risk = np.asarray(risk, np.float64)
+    if scene.risk is not None:
+        risk = np.asarray(scene.risk, np.float64)
         norm = PowerNorm(0.5, vmin=0.0, vmax=max(float(risk.max()), 1e-9))
         ax.imshow(risk, cmap=_RISK_CMAP, norm=norm, extent=(0, n, n, 0), interpolation="nearest")
         for r in range(n):
             for c in range(n):
                 ax.text(c + 0.05, r + 0.05, f"{risk[r, c]:.2g}", ha="left", va="top", fontsize=small,
                         color="white" if norm(risk[r, c]) > 0.75 else "#444444")
-    hidden = False
-    if isinstance(env, DCG):
-        fog, hidden = _fog(env, state)
-        if fog:
-            for r in range(n):
-                for c in range(n):
-                    if (r == 0 or c == 0) and (r, c) != (0, 0):
-                        ax.add_patch(Rectangle((c, r), 1, 1, facecolor=COLORS["fog"], alpha=0.55 if hidden else 0.3,
-                                               hatch="//", edgecolor="#707070", linewidth=0))
+    hidden = scene.opponent_hidden
+    if scene.fog:
+        for r in range(n):
+            for c in range(n):
+                if (r == 0 or c == 0) and (r, c) != (0, 0):
+                    ax.add_patch(Rectangle((c, r), 1, 1, facecolor=COLORS["fog"], alpha=0.55 if hidden else 0.3,
+                                           hatch="//", edgecolor="#707070", linewidth=0))
     ax.add_patch(Rectangle((0, 0), 1, 1, facecolor=COLORS["base"], edgecolor="#2d6a2d", linewidth=2, alpha=0.85))
     ax.text(0.95, 0.95, "base", ha="right", va="bottom", fontsize=small, color="#1b401b")
     ax.hlines(np.arange(n + 1), 0, n, colors=COLORS["grid"], linewidth=0.8)
     ax.vlines(np.arange(n + 1), 0, n, colors=COLORS["grid"], linewidth=0.8)
 
-    items = np.asarray(state.items)
+    items = np.asarray(scene.items)
     for r, c in zip(*np.nonzero(items > 0)):
         ax.add_patch(Circle((c + 0.5, r + 0.5), 0.3, facecolor=COLORS["item"], edgecolor="#8a6d00", linewidth=1))
         ax.text(c + 0.5, r + 0.5, _fmt(items[r, c]), ha="center", va="center", fontsize=label, color="black")
 
-    pr, pc = (int(p) for p in np.asarray(state.pos))
+    pr, pc = (int(p) for p in np.asarray(scene.agent))
     ax.add_patch(Circle((pc + 0.5, pr + 0.5), 0.36, facecolor=COLORS["agent"], edgecolor="white", linewidth=1.5))
-    ax.text(pc + 0.5, pr + 0.5, _fmt(state.energy), ha="center", va="center", fontsize=label, color="white",
+    ax.text(pc + 0.5, pr + 0.5, _fmt(scene.energy), ha="center", va="center", fontsize=label, color="white",
             fontweight="bold")
-    if isinstance(env, DCG):
-        orow, ocol = (int(p) for p in np.asarray(state.opponent.pos))
+    if scene.opponent is not None:
+        orow, ocol = (int(p) for p in np.asarray(scene.opponent))
         style = {"alpha": 0.35, "linestyle": "--"} if hidden else {}
         if (orow, ocol) == (pr, pc):
             ax.add_patch(Circle((ocol + 0.5, orow + 0.5), 0.44, fill=False, edgecolor=COLORS["opponent"],
@@ -193,9 +180,9 @@ def render_frame(env, params, state, *, title: str | None = None) -> np.ndarray:
                     fontweight="bold", alpha=0.35 if hidden else 1.0)
 
     if title is None:
-        title = f"{type(env).__name__} step {int(state.time)}"
+        title = f"{type(env).__name__} step {scene.step}"
     fig.text(0.5, 1 - 0.5 * TITLE_PX / height, title, ha="center", va="center", fontsize=9)
-    fig.text(0.5, 0.5 * STATUS_PX / height, _status(env, params, state) + (" (opponent hidden)" if hidden else ""),
+    fig.text(0.5, 0.5 * STATUS_PX / height, _status(scene) + (" (opponent hidden)" if hidden else ""),
              ha="center", va="center", fontsize=small + 1)
     canvas.draw()
     return np.asarray(canvas.buffer_rgba())[..., :3].copy()

@@ -18,114 +18,71 @@ seed from gymnasium's ``np_random``.
 
 ``make_dcp`` / ``make_dcp_vector`` are the entry points registered as
 ``"jaxdc/DCP-v0"``, ``make_dcg`` / ``make_dcg_vector`` those of
-``"jaxdc/DCG-v0"`` (see :mod:`jaxdc`). ``render_mode="ansi"``: the environment's
-``render_ansi(state, params)`` method (DCP and DCG), for others the DCP's text
-(:func:`render_ansi`, :func:`jaxdc.dcp.env.render_ansi`). ``render_mode="rgb_array"``
-(DCP and DCG): a ``uint8 [H, W, 3]`` picture by :func:`jaxdc.viewer.render_frame` (risk field, base,
-agent and energy, items, opponent, fog).
+``"jaxdc/DCG-v0"`` (see :mod:`jaxdc`). The adapters know no problem: they call
+the environment's hooks (:class:`~jaxdc.core.env.Environment`). ``render_mode="ansi"``:
+its ``render_ansi(state, params)``; ``render_mode="rgb_array"``: a ``uint8 [H, W, 3]``
+picture of its ``scene(state, params)`` by :func:`jaxdc.viewer.render_frame` (for the
+DCP and DCG: risk field, base, agent and energy, items, opponent, fog); ``info["outcome"]``:
+a name from its ``outcomes``. The compiled steps are those of :mod:`jaxdc.wrappers.batched`.
 """
 
 from __future__ import annotations
 
-import sys
+from collections.abc import Callable, Sequence
 from functools import partial
 from typing import Any
 
 import gymnasium
 import jax
-import jax.numpy as jnp
 import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from jaxdc.core.env import Environment
+from jaxdc.core.env import Environment, writes
 from jaxdc.core.validate import check_positive_int, check_seed
-from jaxdc.dcp.env import render_ansi
+from jaxdc.wrappers import batched
 
 RENDER_MODES = ("ansi", "rgb_array")
 
 __all__ = ["JaxToGymnasium", "JaxVectorEnv", "make_dcp", "make_dcp_vector", "make_dcg", "make_dcg_vector",
-           "render_ansi", "RENDER_MODES"]
+           "RENDER_MODES"]
 
 
-def _check_render_mode(render_mode, env=None):
+def _check_render_mode(render_mode: str | None, env: Environment | None = None) -> str | None:
     if render_mode is not None and render_mode not in RENDER_MODES:
         raise ValueError(f"render_mode must be None or one of {list(RENDER_MODES)}, got {render_mode!r}")
-    if render_mode == "rgb_array" and env is not None:
-        from jaxdc.dcg.env import DCG
-        from jaxdc.dcp.env import DCP
-
-        if not isinstance(env, (DCP, DCG)):
-            raise ValueError(f"render_mode='rgb_array' draws DCP and DCG states only, not {type(env).__name__}; "
-                             f"use render_mode='ansi'")
+    if env is not None and render_mode is not None:
+        hook = _HOOKS[render_mode]
+        if not writes(env, hook):
+            other = [m for m in RENDER_MODES if m != render_mode and writes(env, _HOOKS[m])]
+            raise ValueError(f"render_mode={render_mode!r} needs an environment that writes {hook}(state, params) "
+                             f"(as the DCP and DCG do); {type(env).__name__} does not"
+                             + (f"; use render_mode={other[0]!r}" if other else ""))
     return render_mode
 
 
-def _outcome_names(env, outcome_names):
+#: The Environment hook each render mode calls.
+_HOOKS = {"ansi": "render_ansi", "rgb_array": "scene"}
+
+
+def _outcome_names(env: Environment, outcome_names: Sequence[str] | None) -> tuple[str, ...] | None:
     if outcome_names is not None:
         return tuple(outcome_names)
-    names = getattr(env, "OUTCOMES", None)
-    if names is None:
-        names = getattr(sys.modules.get(type(env).__module__), "OUTCOMES", None)
-    return None if names is None else tuple(names)
+    return None if env.outcomes is None else tuple(env.outcomes)
 
 
-def _spaces(env: Environment, params, observation_space=None):
-    """gymnasium spaces from the environment's own (finite) ``observation_space(params)``; an environment
-    that does not bound its observations (``observation_bounds`` not written) gets an unbounded Box."""
-    if observation_space is None:
-        shape = tuple(int(s) for s in env.observation_shape(params))
-        try:
-            box = env.observation_space(params)
-            low, high = box.low, box.high
-        except NotImplementedError:
-            low, high = np.full(shape, -np.inf, np.float32), np.full(shape, np.inf, np.float32)
-        observation_space = spaces.Box(low=low, high=high, shape=shape, dtype=np.float32)
-    return observation_space, spaces.Discrete(int(env.num_actions))
-
-
-# One compiled function per (env config[, batch size]), shared by all wrappers:
-# the env is a static argument (DCP defines __eq__/__hash__ on its config), the
-# params a traced pytree, so reset/step never retrace after the first call.
-@partial(jax.jit, static_argnums=0)
-def _reset_one(env, key, params):
-    key, sub = jax.random.split(key)
-    obs, state = env.reset_env(sub, params)
-    return key, obs, state
-
-
-@partial(jax.jit, static_argnums=0)
-def _step_one(env, key, state, action, params):
-    key, sub = jax.random.split(key)
-    return (key,) + tuple(env.step_env(sub, state, action, params))
-
-
-@partial(jax.jit, static_argnums=(0, 1))
-def _reset_batch(env, num_envs, key, params):
-    key, sub = jax.random.split(key)
-    obs, state = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(sub, num_envs), params)
-    return key, obs, state
-
-
-@partial(jax.jit, static_argnums=(0, 1))
-def _step_batch(env, num_envs, key, state, actions, params):
-    key, sub = jax.random.split(key)
-    out = jax.vmap(env.step, in_axes=(0, 0, 0, None))(jax.random.split(sub, num_envs), state, actions, params)
-    return (key,) + tuple(out)
-
-
-def _renderer(env, render_mode: str = "ansi"):
-    """``render(state, params)`` for ``render_mode``: :func:`jaxdc.viewer.render_frame` for ``"rgb_array"``;
-    for ``"ansi"`` the env's own ``render_ansi(state, params)`` where it has one, else :func:`render_ansi`."""
+def _renderer(env: Environment, render_mode: str = "ansi") -> Callable[[Any, Any], Any]:
+    """``render(state, params)`` for ``render_mode``: :func:`jaxdc.viewer.render_frame` (which draws the env's
+    :meth:`~jaxdc.core.env.Environment.scene`) for ``"rgb_array"``, the env's ``render_ansi`` for ``"ansi"``."""
     if render_mode == "rgb_array":
         from jaxdc.viewer import render_frame
 
         return lambda state, params: render_frame(env, params, state)
-    return getattr(env, "render_ansi", None) or render_ansi
+    return env.render_ansi
 
 
-def _check_action(action, num_actions: int) -> np.int32:
+def _check_action(action: Any, num_actions: int) -> np.int32:
     try:
         a = np.asarray(action)
         ok = a.shape == () and np.issubdtype(a.dtype, np.integer) and 0 <= int(a) < num_actions
@@ -141,15 +98,26 @@ class _KeyedReset:
     ``PRNGKey(s)``; every reset and step then splits off a subkey. A reset without a seed
     continues the stream (the very first one draws its seed from gymnasium's ``np_random``)."""
 
+    # set by the adapter's constructor
+    env: Environment
+    params: Any
+    render_mode: str | None
+    np_random: np.random.Generator
+    _key: jax.Array | None
+    _state: Any
+    _reset_fn: Callable[..., Any]
+    _step_fn: Callable[..., Any]
+
     @property
-    def state(self):
+    def state(self) -> Any:
         """The current functional state, batched for the vector env (``None`` before the first reset)."""
         return self._state
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         if seed is not None:
             check_seed("seed", seed)
-        super().reset(seed=seed)
+        super().reset(seed=seed)  # type: ignore[misc]  # gymnasium's Env/VectorEnv, next in the adapter's MRO
         if seed is not None:
             self._key = jax.random.PRNGKey(seed)
         elif self._key is None:
@@ -157,7 +125,7 @@ class _KeyedReset:
         self._key, obs, self._state = self._reset_fn(self._key, self.params)
         return np.asarray(obs, dtype=np.float32), {}
 
-    def _host_state(self, what: str):
+    def _host_state(self, what: str) -> tuple[Any, Any] | None:
         """``(state, params)`` on the host for ``render``; None (with a warning) without a render mode."""
         if self.render_mode is None:
             gymnasium.logger.warn(f"{what}() called without a render_mode; pass render_mode='ansi' or 'rgb_array'")
@@ -173,34 +141,33 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
     Args:
       env: the functional environment.
       params: its ``EnvParams`` (default: ``env.default_params``).
-      render_mode: ``None``, ``"ansi"`` (text) or ``"rgb_array"`` (DCP/DCG: ``uint8 [H, W, 3]``).
+      render_mode: ``None``, ``"ansi"`` (text) or ``"rgb_array"`` (``uint8 [H, W, 3]``; environments that
+        write ``scene``, as the DCP and DCG do).
       outcome_names: names for ``info["outcome"]`` indices (default: the
-        env's ``OUTCOMES``, looked up on the env or its module); the index
-        stays in ``info["outcome_index"]``.
-      observation_space: override of the default ``Box`` (for the DCP's
-        ``[N, N, 2]`` planes: item plane in ``[0, inf)``, agent plane in
-        ``[-1, inf)``; otherwise unbounded).
+        env's ``outcomes``); the index stays in ``info["outcome_index"]``.
+      observation_space: override of the default ``Box`` (the env's own
+        ``observation_space(params)``; unbounded where the env does not bound
+        its observations).
     """
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": 4}
 
-    def __init__(self, env: Environment, params=None, render_mode: str | None = None, outcome_names=None,
-                 observation_space: spaces.Space | None = None):
+    def __init__(self, env: Environment, params: Any = None, render_mode: str | None = None,
+                 outcome_names: Sequence[str] | None = None, observation_space: spaces.Space | None = None) -> None:
         self.render_mode = _check_render_mode(render_mode, env)
         self.env = env
         self.params = env.default_params if params is None else params
-        self.observation_space, self.action_space = _spaces(env, self.params, observation_space)
+        self.observation_space, self.action_space = batched.host_spaces(env, self.params, observation_space)
         self.outcome_names = _outcome_names(env, outcome_names)
         self._key = None
         self._state = None
-        self._reset_fn = partial(_reset_one, env)
-        self._step_fn = partial(_step_one, env)
+        self._reset_fn = partial(batched.reset_one, env)
+        self._step_fn = partial(batched.step_one, env)
 
-
-    def step(self, action):
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._state is None:
             raise RuntimeError("call reset() before step()")
-        action = _check_action(action, int(self.action_space.n))
+        action = _check_action(action, int(self.env.num_actions))
         out = self._step_fn(self._key, self._state, action, self.params)
         self._key, obs, self._state, reward, terminated, truncated, info = out
         obs, reward, terminated, truncated, info = jax.device_get((obs, reward, terminated, truncated, info))
@@ -212,7 +179,7 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
             self._info(info),
         )
 
-    def _info(self, info) -> dict:
+    def _info(self, info: dict[str, Any]) -> dict[str, Any]:
         out = {}
         for k, v in info.items():
             v = np.asarray(v)
@@ -222,9 +189,9 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
             out["outcome"] = self.outcome_names[int(out["outcome"])]
         return out
 
-    def render(self):
+    def render(self) -> Any:  # str (ansi) or uint8 [H, W, 3] (rgb_array)
         host = self._host_state("render")
-        return None if host is None else _renderer(self.env, self.render_mode)(*host)
+        return None if host is None else _renderer(self.env, self.render_mode or "ansi")(*host)
 
 
 class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
@@ -241,24 +208,24 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": 4, "autoreset_mode": AutoresetMode.SAME_STEP}
 
-    def __init__(self, env: Environment, num_envs: int, params=None, render_mode: str | None = None,
-                 outcome_names=None, observation_space: spaces.Space | None = None):
+    def __init__(self, env: Environment, num_envs: int, params: Any = None, render_mode: str | None = None,
+                 outcome_names: Sequence[str] | None = None, observation_space: spaces.Space | None = None) -> None:
         check_positive_int("num_envs", num_envs)
         self.render_mode = _check_render_mode(render_mode, env)
         self.env = env
         self.num_envs = int(num_envs)
         self.params = env.default_params if params is None else params
-        self.single_observation_space, self.single_action_space = _spaces(env, self.params, observation_space)
+        self.single_observation_space, self.single_action_space = batched.host_spaces(env, self.params,
+                                                                                      observation_space)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.outcome_names = _outcome_names(env, outcome_names)
         self._key = None
         self._state = None
-        self._reset_fn = partial(_reset_batch, env, self.num_envs)
-        self._step_fn = partial(_step_batch, env, self.num_envs)
+        self._reset_fn = partial(batched.reset, env, self.num_envs)
+        self._step_fn = partial(batched.step, env, self.num_envs)
 
-
-    def step(self, actions):
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if self._state is None:
             raise RuntimeError("call reset() before step()")
         a = np.asarray(actions)
@@ -266,7 +233,7 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
             a.astype(self.action_space.dtype)
         ):
             raise ValueError(
-                f"actions must be {self.num_envs} ints in [0, {self.single_action_space.n}), got {actions!r}"
+                f"actions must be {self.num_envs} ints in [0, {self.env.num_actions}), got {actions!r}"
             )
         out = self._step_fn(self._key, self._state, a.astype(np.int32), self.params)
         self._key, obs, self._state, reward, terminated, truncated, info = out
@@ -281,7 +248,7 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
             self._info(info, terminated | truncated),
         )
 
-    def _info(self, info, done) -> dict:
+    def _info(self, info: dict[str, Any], done: np.ndarray) -> dict[str, Any]:
         info = dict(info)
         final = np.asarray(info.pop("final_observation"), dtype=np.float32)
         out: dict[str, Any] = {}
@@ -300,12 +267,12 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
         out["_final_obs"] = done.copy()
         return out
 
-    def render(self):
+    def render(self) -> tuple[Any, ...] | None:
         host = self._host_state("render")
         if host is None:
             return None
         state, params = host
-        render = _renderer(self.env, self.render_mode)
+        render = _renderer(self.env, self.render_mode or "ansi")
         return tuple(
             render(jax.tree_util.tree_map(lambda x, i=i: x[i], state), params) for i in range(self.num_envs)
         )
@@ -314,15 +281,17 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
 # -- entry points of "jaxdc/DCP-v0" --------------------------------------------------------
 
 
-def _build_dcp(risk, energy, grid_size, total_reward, max_steps, start, dcp_kwargs):
+def _build_dcp(risk: Any, energy: Any, grid_size: int, total_reward: int, max_steps: int, start: str,
+               dcp_kwargs: dict[str, Any]) -> tuple[Environment, Any]:
     from jaxdc.dcp.env import DCP
 
     env = DCP(grid_size=grid_size, total_reward=total_reward, start=start, **dcp_kwargs)
     return env, env.make_params(risk=risk, energy=energy, max_steps=max_steps)
 
 
-def make_dcp(risk="high", energy=(8.0, 16.0), grid_size: int = 8, total_reward: int = 30, max_steps: int = 1000,
-             start: str = "random_free", render_mode: str | None = None, **dcp_kwargs) -> JaxToGymnasium:
+def make_dcp(risk: Any = "high", energy: Any = (8.0, 16.0), grid_size: int = 8, total_reward: int = 30,
+             max_steps: int = 1000, start: str = "random_free", render_mode: str | None = None,
+             **dcp_kwargs: Any) -> JaxToGymnasium:
     """The DCP as a :class:`JaxToGymnasium` (entry point of ``"jaxdc/DCP-v0"``).
 
     ``dcp_kwargs`` go to :class:`~jaxdc.dcp.env.DCP` (``items_on_base``,
@@ -334,9 +303,10 @@ def make_dcp(risk="high", energy=(8.0, 16.0), grid_size: int = 8, total_reward: 
     return JaxToGymnasium(env, params, render_mode=render_mode)
 
 
-def make_dcp_vector(num_envs: int = 1, risk="high", energy=(8.0, 16.0), grid_size: int = 8, total_reward: int = 30,
+def make_dcp_vector(num_envs: int = 1, risk: Any = "high", energy: Any = (8.0, 16.0), grid_size: int = 8,
+                    total_reward: int = 30,
                     max_steps: int = 1000, start: str = "random_free", render_mode: str | None = None,
-                    **dcp_kwargs) -> JaxVectorEnv:
+                    **dcp_kwargs: Any) -> JaxVectorEnv:
     """The DCP as a :class:`JaxVectorEnv` (vector entry point of ``"jaxdc/DCP-v0"``)."""
     _check_render_mode(render_mode)
     env, params = _build_dcp(risk, energy, grid_size, total_reward, max_steps, start, dcp_kwargs)
@@ -346,7 +316,7 @@ def make_dcp_vector(num_envs: int = 1, risk="high", energy=(8.0, 16.0), grid_siz
 # -- entry points of "jaxdc/DCG-v0" --------------------------------------------------------
 
 
-def _build_dcg(energy, max_steps, chase_tie, dcg_kwargs):
+def _build_dcg(energy: float, max_steps: int, chase_tie: str, dcg_kwargs: dict[str, Any]) -> tuple[Environment, Any]:
     from jaxdc.dcg.env import DCG
 
     env = DCG(**dcg_kwargs)
@@ -354,7 +324,7 @@ def _build_dcg(energy, max_steps, chase_tie, dcg_kwargs):
 
 
 def make_dcg(energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight",
-             render_mode: str | None = None, **dcg_kwargs) -> JaxToGymnasium:
+             render_mode: str | None = None, **dcg_kwargs: Any) -> JaxToGymnasium:
     """The DCG as a :class:`JaxToGymnasium` (entry point of ``"jaxdc/DCG-v0"``).
 
     ``dcg_kwargs`` go to :class:`~jaxdc.dcg.env.DCG` (``grid_size``,
@@ -368,7 +338,7 @@ def make_dcg(energy: float = 15.0, max_steps: int = 100, chase_tie: str = "strai
 
 
 def make_dcg_vector(num_envs: int = 1, energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight",
-                    render_mode: str | None = None, **dcg_kwargs) -> JaxVectorEnv:
+                    render_mode: str | None = None, **dcg_kwargs: Any) -> JaxVectorEnv:
     """The DCG as a :class:`JaxVectorEnv` (vector entry point of ``"jaxdc/DCG-v0"``)."""
     _check_render_mode(render_mode)
     env, params = _build_dcg(energy, max_steps, chase_tie, dcg_kwargs)

@@ -3,8 +3,8 @@
 SB3 does not accept gymnasium's ``VectorEnv``, and ``make_vec_env`` steps
 ``num_envs`` single environments one Python call at a time. :class:`JaxdcVecEnv`
 steps them with one jitted ``vmap`` of :meth:`~jaxdc.core.env.Environment.step`
-(the compiled functions of :mod:`jaxdc.wrappers.gymnasium`, shared with its
-adapters) and follows SB3's ``VecEnv`` contract:
+(the compiled functions of :mod:`jaxdc.wrappers.batched`, shared with the
+gymnasium adapters) and follows SB3's ``VecEnv`` contract:
 
 * ``reset()`` returns the batched first observations; the seed set by
   ``seed(s)`` (SB3 passes ``seed + i`` per copy; the first of them keys the
@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import time
 from functools import partial
+from typing import Any
 
 import jax
 import numpy as np
@@ -42,7 +43,7 @@ except ImportError as e:  # pragma: no cover - exercised only without the extra
 
 from jaxdc.core.env import Environment
 from jaxdc.core.validate import check_positive_int, check_seed
-from jaxdc.wrappers.gymnasium import _reset_batch, _spaces, _step_batch
+from jaxdc.wrappers import batched
 
 __all__ = ["JaxdcVecEnv", "make_sb3_vec_env"]
 
@@ -57,23 +58,23 @@ class JaxdcVecEnv(VecEnv):
       seed: the seed of the first reset (0 .. 2**32 - 1); ``None`` draws one.
     """
 
-    def __init__(self, env: Environment, num_envs: int, params=None, seed: int | None = 0):
+    def __init__(self, env: Environment, num_envs: int, params: Any = None, seed: int | None = 0) -> None:
         self.env = env
         self.params = env.default_params if params is None else params
         self.render_mode = None
         n = check_positive_int("num_envs", num_envs)
-        obs_space, act_space = _spaces(env, self.params)
+        obs_space, act_space = batched.host_spaces(env, self.params)
         super().__init__(n, obs_space, act_space)
         self._first_seed = None if seed is None else check_seed("seed", seed)
-        self._key = None
-        self._state = None
-        self._actions = None
-        self._reset_fn = partial(_reset_batch, env, n)
-        self._step_fn = partial(_step_batch, env, n)
+        self._key: jax.Array | None = None
+        self._state: Any = None
+        self._actions: np.ndarray | None = None
+        self._reset_fn = partial(batched.reset, env, n)
+        self._step_fn = partial(batched.step, env, n)
         self._started = np.full(n, time.perf_counter())
 
     # -- the VecEnv interface -------------------------------------------------------------
-    def reset(self):
+    def reset(self) -> np.ndarray:
         seed = self._seeds[0] if self._seeds[0] is not None else self._first_seed
         if seed is None and self._key is None:
             seed = int(np.random.randint(0, 2**31 - 1))
@@ -86,14 +87,14 @@ class JaxdcVecEnv(VecEnv):
         self._started[:] = time.perf_counter()
         return np.array(obs, dtype=np.float32)  # a writable copy, as torch wants
 
-    def step_async(self, actions) -> None:
+    def step_async(self, actions: Any) -> None:
         a = np.asarray(actions).reshape(-1)
-        if a.shape != (self.num_envs,) or not np.issubdtype(a.dtype, np.integer) \
-                or a.min() < 0 or a.max() >= self.action_space.n:
-            raise ValueError(f"actions must be {self.num_envs} ints in [0, {self.action_space.n}), got {actions!r}")
+        n = int(self.env.num_actions)
+        if a.shape != (self.num_envs,) or not np.issubdtype(a.dtype, np.integer) or a.min() < 0 or a.max() >= n:
+            raise ValueError(f"actions must be {self.num_envs} ints in [0, {n}), got {actions!r}")
         self._actions = a.astype(np.int32)
 
-    def step_wait(self):
+    def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
         if self._state is None:
             raise RuntimeError("call reset() before step()")
         out = self._step_fn(self._key, self._state, self._actions, self.params)
@@ -103,7 +104,7 @@ class JaxdcVecEnv(VecEnv):
              info["episode_steps"]))
         terminated, truncated = np.asarray(terminated, bool), np.asarray(truncated, bool)
         done = terminated | truncated
-        infos = [{} for _ in range(self.num_envs)]
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         now = time.perf_counter()
         for i in np.flatnonzero(done):
             infos[i] = {
@@ -117,21 +118,21 @@ class JaxdcVecEnv(VecEnv):
     def close(self) -> None:
         self._state = None
 
-    def get_attr(self, attr_name: str, indices=None) -> list:
-        return [getattr(self, attr_name)] * len(self._get_indices(indices))
+    def get_attr(self, attr_name: str, indices: Any = None) -> list:
+        return [getattr(self, attr_name)] * len(list(self._get_indices(indices)))
 
-    def set_attr(self, attr_name: str, value, indices=None) -> None:
+    def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
         setattr(self, attr_name, value)
 
-    def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list:
+    def env_method(self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any) -> list:
         method = getattr(self.env, method_name)
-        return [method(*method_args, **method_kwargs)] * len(self._get_indices(indices))
+        return [method(*method_args, **method_kwargs)] * len(list(self._get_indices(indices)))
 
-    def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
-        return [False] * len(self._get_indices(indices))
+    def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
+        return [False] * len(list(self._get_indices(indices)))
 
 
-def make_sb3_vec_env(env_id: str = "DCP-v0", num_envs: int = 8, seed: int | None = 0, **kwargs) -> JaxdcVecEnv:
+def make_sb3_vec_env(env_id: str = "DCP-v0", num_envs: int = 8, seed: int | None = 0, **kwargs: Any) -> JaxdcVecEnv:
     """:class:`JaxdcVecEnv` of a registered jaxdc environment (``jaxdc.make(env_id, **kwargs)``)."""
     from jaxdc import make
 

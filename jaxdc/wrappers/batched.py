@@ -1,0 +1,74 @@
+"""The compiled single and batched steps behind the adapters, and their host spaces.
+
+:class:`jaxdc.wrappers.gymnasium.JaxToGymnasium`, :class:`jaxdc.wrappers.gymnasium.JaxVectorEnv` and
+:class:`jaxdc.wrappers.sb3.JaxdcVecEnv` share these functions. Each is jitted with the
+environment as a static argument (the :class:`~jaxdc.core.env.Environment` base
+compares and hashes environments by their configuration) and the parameters as a
+traced pytree, so one compiled function serves every adapter of one environment
+configuration (and batch size), and reset/step never retrace after the first call.
+
+Key scheme: each call splits the adapter's key, ``key, sub = split(key)``,
+returns the new ``key`` first and uses ``sub`` (the batched functions split
+``sub`` into ``num_envs`` keys).
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any
+
+import jax
+import numpy as np
+from gymnasium import spaces
+
+from jaxdc.core.env import Environment
+
+__all__ = ["reset_one", "step_one", "reset", "step", "host_spaces"]
+
+
+@partial(jax.jit, static_argnums=0)
+def reset_one(env: Environment, key: jax.Array, params: Any) -> tuple[jax.Array, jax.Array, Any]:
+    """``(key, obs, state)``: one fresh episode."""
+    key, sub = jax.random.split(key)
+    obs, state = env.reset_env(sub, params)
+    return key, obs, state
+
+
+@partial(jax.jit, static_argnums=0)
+def step_one(env: Environment, key: jax.Array, state: Any, action: jax.Array, params: Any) -> tuple:
+    """``(key, obs, state, reward, terminated, truncated, info)``: one transition, without auto-reset."""
+    key, sub = jax.random.split(key)
+    return (key,) + tuple(env.step_env(sub, state, action, params))
+
+
+@partial(jax.jit, static_argnums=(0, 1))
+def reset(env: Environment, num_envs: int, key: jax.Array, params: Any) -> tuple[jax.Array, jax.Array, Any]:
+    """``(key, obs, state)`` of ``num_envs`` fresh episodes (leading axis ``num_envs``)."""
+    key, sub = jax.random.split(key)
+    obs, state = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(sub, num_envs), params)
+    return key, obs, state
+
+
+@partial(jax.jit, static_argnums=(0, 1))
+def step(env: Environment, num_envs: int, key: jax.Array, state: Any, actions: jax.Array, params: Any) -> tuple:
+    """``(key, obs, state, reward, terminated, truncated, info)`` of ``num_envs`` copies stepped at once, with
+    the same-step auto-reset of :meth:`~jaxdc.core.env.Environment.step` (``info["final_observation"]``)."""
+    key, sub = jax.random.split(key)
+    out = jax.vmap(env.step, in_axes=(0, 0, 0, None))(jax.random.split(sub, num_envs), state, actions, params)
+    return (key,) + tuple(out)
+
+
+def host_spaces(env: Environment, params: Any,
+                observation_space: spaces.Space | None = None) -> tuple[spaces.Space, spaces.Discrete]:
+    """gymnasium ``(observation_space, action_space)`` of one copy, from the environment's own (finite)
+    ``observation_space(params)``; an environment that does not bound its observations (``observation_bounds``
+    not written) gets an unbounded Box. ``observation_space`` overrides the first."""
+    if observation_space is None:
+        shape = tuple(int(s) for s in env.observation_shape(params))
+        try:
+            box = env.observation_space(params)
+            low, high = box.low, box.high
+        except NotImplementedError:
+            low, high = np.full(shape, -np.inf, np.float32), np.full(shape, np.inf, np.float32)
+        observation_space = spaces.Box(low=low, high=high, shape=shape, dtype=np.float32)
+    return observation_space, spaces.Discrete(int(env.num_actions))
