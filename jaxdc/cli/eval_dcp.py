@@ -54,6 +54,7 @@ import os
 import sys
 
 from jaxdc.cli.args import integer, positive_float, positive_int, real, seed, unit_interval
+from jaxdc.cli import eval_dcp_generalisation as generalisation
 from jaxdc.cli.runner import command_line, with_subcommand
 from jaxdc.core import grid
 from jaxdc.core.energy import MAX_FINITE_ENERGY
@@ -80,7 +81,7 @@ PROG = "python -m eval.dcp"
 #: Where ``--table`` writes its results unless ``--out`` is given.
 DEFAULT_OUT = os.path.join("results", "dcp")
 #: The subcommands; a command line that names none is an ``evaluate`` (as before they existed).
-SUBCOMMANDS, DEFAULT_SUBCOMMAND = ("evaluate", "table"), "evaluate"
+SUBCOMMANDS, DEFAULT_SUBCOMMAND = ("evaluate", "table", "generalisation"), "evaluate"
 #: The tables, in the thesis' order.
 TABLE_NAMES = sorted(TABLES, key=lambda t: float(t))
 
@@ -105,7 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("table", choices=TABLE_NAMES, help="the thesis table")
     t.set_defaults(policy=None)
     _add_options(t)
-    for q in (p, t):
+    g = generalisation.add_parser(sub, PROG)
+    for q in (p, t, g):
         q.set_defaults(parser=q)
     return parser
 
@@ -305,6 +307,11 @@ def main(argv=None) -> int:
     """Run the command line; the exit status (a bad flag value exits 2 through argparse, with one error line)."""
     args = parse_args(argv)
     parser = args.parser
+    if args.command == "generalisation":
+        try:
+            return generalisation.main(args, PROG, argv)
+        except (ValueError, TypeError, MemoryError) as e:
+            parser.error(str(e))
     spec = TABLES[args.table] if args.table else None
     if spec and args.risk_map:
         parser.error("--table runs the thesis' own setting; it cannot take --risk-map")

@@ -26,6 +26,7 @@ import sys
 
 from jaxdc import pretrained
 from jaxdc.cli.args import positive_int, seed
+from jaxdc.cli.runner import command_line
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.analysis import generalisation as gen
 from jaxdc.io import atomic_write_set, check_output_folder, enable_compilation_cache, json_text
@@ -92,7 +93,7 @@ def main(args: argparse.Namespace, prog: str, argv=None) -> int:
     grid = gen.settings(learned.metadata, args.maps_per_source, pairs, learned.metadata.get("grid_size", 8),
                         args.generator)
     enable_compilation_cache()
-    command = f"{prog} " + " ".join(sys.argv[1:] if argv is None else argv)
+    command = command_line(prog, argv)
 
     def progress(i, n, row):
         print(f"[{i}/{n}] {row['source']} {row['map']} {row['energy'][0]:g}/{row['energy'][1]:g}: "
