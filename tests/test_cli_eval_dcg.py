@@ -11,7 +11,7 @@ import pytest
 
 from jaxdc import pretrained
 from jaxdc.cli import eval_dcg as cli
-from jaxdc.dcg.analysis.evaluation import evaluate
+from jaxdc.dcg.analysis.collector_eval import evaluate
 from jaxdc.dcg.learned import init_params, make_network
 
 EPISODES = "16"  # one value for every evaluation here: the compiled program is shared

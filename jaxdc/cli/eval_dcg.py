@@ -50,7 +50,7 @@ from jaxdc.core.trajectory import play_episode
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis.cache import EvaluationCache
 from jaxdc.dcg.analysis.claims import claims
-from jaxdc.dcg.analysis.evaluation import evaluate
+from jaxdc.dcg.analysis.collector_eval import evaluate
 from jaxdc.dcg.analysis.experiment import (ExperimentSettings, group_key, network_pool, run_experiment,
                                            stored_standard)
 from jaxdc.dcg.analysis.figures import EXPERIMENTS, FIGURES, missing
@@ -58,7 +58,7 @@ from jaxdc.dcg.analysis.report import (figure_csv, figure_markdown, figure_paylo
                                        optimum_text, report, result_name)
 from jaxdc.dcg.env import CAPTURES, DCG, OPPONENT_STARTS, OUTCOMES, PATROL_TARGETS
 from jaxdc.dcg.exact.many_items import sampled_bound
-from jaxdc.dcg.exact.one_item import MAX_GRID_SIZE
+from jaxdc.dcg.exact.machine import MAX_GRID_SIZE
 from jaxdc.dcg.opponents import CHASE_TIES, DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
 from jaxdc.io import (atomic_write_json, atomic_write_set, check_output_folder, enable_compilation_cache,
                       json_text)

@@ -1,7 +1,7 @@
 """Results of section 5.5 as text: one evaluation's report and file name, a figure's tables and JSON payload,
 and the sampled full-information bound's record.
 
-These turn the dicts of :func:`jaxdc.dcg.analysis.evaluation.evaluate`,
+These turn the dicts of :func:`jaxdc.dcg.analysis.collector_eval.evaluate`,
 :func:`jaxdc.dcg.analysis.experiment.run_experiment` and
 :func:`jaxdc.dcg.exact.many_items.sampled_bound` into what ``python -m eval.dcg``
 prints and writes; they compute nothing.
@@ -16,7 +16,7 @@ import os
 
 import numpy as np
 
-from jaxdc.dcg.analysis.claims import Verdict
+from jaxdc.core.claims import Verdict
 from jaxdc.dcg.analysis.experiment import ExperimentResults, group_key
 from jaxdc.dcg.analysis.figures import Experiment
 from jaxdc.dcg.opponents import DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES
@@ -122,7 +122,7 @@ def figure_markdown(exp: Experiment, data: ExperimentResults, verdicts: list[Ver
             cells.append(r["note"] or "")
             lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "| thesis claim | ours | agrees |", "|---|---|---|"]
-    lines += [f"| {c} | {o} | {a} |" for c, o, a in verdicts]
+    lines += [f"| {v.claim} | {v.ours} | {v.agrees} |" for v in verdicts]
     if missing:
         lines += ["", "Missing networks (no parameter file trained as the thesis did): " + "; ".join(missing) + "."]
     return "\n".join(lines) + "\n"
@@ -135,7 +135,7 @@ def figure_payload(exp: Experiment, data: ExperimentResults, verdicts: list[Verd
             "episodes": episodes, "seed": seed, "greedy": greedy,
             "results": {group_key(g): row for g, row in data.results.items()},
             "bounds": {group_key(g): b for g, b in data.bounds.items()},
-            "claims": [{"claim": c, "ours": o, "agrees": a} for c, o, a in verdicts], "missing": missing}
+            "claims": [{"claim": v.claim, "ours": v.ours, "agrees": v.agrees} for v in verdicts], "missing": missing}
 
 
 # -- the sampled full-information bound ------------------------------------------------------------
