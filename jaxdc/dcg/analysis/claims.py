@@ -17,12 +17,13 @@ from __future__ import annotations
 
 from jaxdc.core.claims import Verdict, agreement
 from jaxdc.dcg.analysis.figures import NET_LABELS, Experiment, family
-from jaxdc.dcg.analysis.measures import (Bars, Claim, ClaimSet, beat_vnn_at_every_size, best_above, best_at_every_size,
-                                         best_rpe_and_vnn_over_imnn, best_rpe_at_small_sizes, better_than_standard,
-                                         change_from_standard, energy_against_double_blind, falls_as_area_shrinks,
-                                         gain_over_vnn, gains_with_smaller_sds, highest_with_smallest_sd,
-                                         less_at_10_slightly_less_at_20, more_reward_at_10, opponent_accuracy, ranking,
-                                         rpe_higher_at_10_same_at_20, rpe_leaders, share_of_bound)
+from jaxdc.dcg.analysis.measures import (Bars, Claim, ClaimSet, bars_of, beat_vnn_at_every_size, best_above,
+                                         best_at_every_size, best_rpe_and_vnn_over_imnn, best_rpe_at_small_sizes,
+                                         better_than_standard, change_from_standard, energy_against_double_blind,
+                                         falls_as_area_shrinks, gain_over_vnn, gains_with_smaller_sds,
+                                         highest_with_smallest_sd, less_at_10_slightly_less_at_20, more_reward_at_10,
+                                         opponent_accuracy, ranking, rpe_higher_at_10_same_at_20, rpe_leaders,
+                                         share_of_bound)
 
 # -- the claims ------------------------------------------------------------------------------------
 
@@ -106,7 +107,8 @@ def _judge(claim: Claim, bars: Bars, lab: str | None) -> Verdict | None:
 
 
 def _verdicts(exp: Experiment, results: dict, standard: dict | None) -> list[Verdict]:
-    bars = Bars(results, standard, tuple(g for g in exp.groups if g in results))
+    bars = Bars(bars_of(results), None if standard is None else bars_of(standard),
+                tuple(g for g in exp.groups if g in results))
     cset = CLAIMS[exp.name]
     labs = (sorted({lb for row in results.values() for lb in row}, key=_network_order) if cset.per_network
             else [None])
@@ -128,7 +130,8 @@ STRONG_MARK = "[strong] "
 def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list[Verdict]:
     """The :class:`Verdict` rows of ``exp``: each claim of :data:`CLAIMS` on the faithful bars, then (where
     there are strong bars) each claim again on the strong ones, marked ``[strong]``. ``results[group][label]``
-    are :func:`jaxdc.dcg.evaluate.summarize` dicts; ``standard`` is the standard experiment's results (for the
+    are stored evaluations (:func:`jaxdc.dcg.analysis.collector_eval.evaluate` dicts), read as
+    :class:`~jaxdc.dcg.analysis.measures.Bar` records; ``standard`` is the standard experiment's results (for the
     double-blind claims, which compare with Fig. 5.6)."""
     rows = _verdicts(exp, family(results, False), family(standard, False) if standard else None)
     strong = family(results, True)

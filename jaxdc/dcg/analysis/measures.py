@@ -24,6 +24,7 @@ from typing import Callable, NamedTuple
 
 from jaxdc.dcg.analysis.figures import NET_LABELS, label
 from jaxdc.dcg.evaluate import relative_increase
+from jaxdc.dcg.summary import MeanSD, Summary
 
 
 class Measured(NamedTuple):
@@ -34,9 +35,33 @@ class Measured(NamedTuple):
     shown: str
 
 
+class Bar(NamedTuple):
+    """One bar of a figure: its statistics, the experiment's note on it (e.g. played by another network) and,
+    in a reward-area game, its share of the exact full-information bound."""
+
+    stats: Summary
+    note: str = ""
+    fraction_of_bound: float | None = None
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Bar:
+        """The bar of one stored evaluation (:func:`jaxdc.dcg.analysis.collector_eval.evaluate`'s dict, with
+        the experiment's ``note``)."""
+        return cls(Summary.from_dict(d), d.get("note") or "", d.get("fraction_of_bound"))
+
+    def stat(self, col: str) -> MeanSD:
+        """The statistic ``col``: ``"reward"``, ``"energy"``, ``"rpe"`` or ``"steps"``."""
+        return getattr(self.stats, col)
+
+
+def bars_of(results: dict) -> dict:
+    """``results[group][label]`` of stored evaluations (dicts) as :class:`Bar` records."""
+    return {g: {lb: Bar.from_dict(r) for lb, r in row.items()} for g, row in results.items()}
+
+
 @dataclasses.dataclass(frozen=True)
 class Bars:
-    """The bars one claim reads: ``results[group][label]`` (``summarize`` dicts), the standard experiment's
+    """The bars one claim reads: ``results[group][label]`` (:class:`Bar` records), the standard experiment's
     ``standard`` for the double-blind claims, and the experiment's group values that were played."""
 
     results: dict
@@ -89,15 +114,15 @@ class ClaimSet:
 
 
 def mean(results, group, lab, col="reward"):
-    """The mean of ``col`` of one bar, ``None`` if the bar is missing."""
-    s = results.get(group, {}).get(lab)
-    return None if s is None else s[col]["mean"]
+    """The mean of ``col`` (``"reward"``, ``"rpe"``, ...) of one bar, ``None`` if the bar is missing."""
+    b = results.get(group, {}).get(lab)
+    return None if b is None else b.stat(col).mean
 
 
 def sd(results, group, lab):
     """The episode reward's SD of one bar, ``None`` if the bar is missing."""
-    s = results.get(group, {}).get(lab)
-    return None if s is None else s["reward"]["sd"]
+    b = results.get(group, {}).get(lab)
+    return None if b is None else b.stats.reward.sd
 
 
 def fmt(x, d=1, suffix=""):
@@ -109,10 +134,16 @@ def clearly_above(results_a, group_a, lab_a, results_b, group_b, lab_b, col="rew
     """Whether bar a's mean exceeds bar b's by more than ``k`` standard errors of the difference
     (independent games); ``None`` if either bar is missing. A bar without an episode count counts as exact."""
     a, b = results_a.get(group_a, {}).get(lab_a), results_b.get(group_b, {}).get(lab_b)
-    if a is None or b is None or a[col]["mean"] is None or b[col]["mean"] is None:
+    if a is None or b is None or a.stat(col).mean is None or b.stat(col).mean is None:
         return None
-    var = sum(x[col]["sd"] ** 2 / x["episodes"] for x in (a, b) if x.get("episodes"))
-    return a[col]["mean"] - b[col]["mean"] > k * math.sqrt(var)
+    var = sum(x.stat(col).sd ** 2 / x.stats.episodes for x in (a, b) if x.stats.episodes)
+    return a.stat(col).mean - b.stat(col).mean > k * math.sqrt(var)
+
+
+def _note(results, group, lab) -> str:
+    """The experiment's note on one bar, ``""`` without a note or a bar."""
+    b = results.get(group, {}).get(lab)
+    return "" if b is None else b.note
 
 
 def find(results, group, net, alpha=None):
@@ -127,8 +158,8 @@ def find(results, group, net, alpha=None):
 
 def best(results, group, col="reward", key=max):
     """The label of the bar with the highest (``key=max``) defined mean of ``col``, ``None`` without bars."""
-    row = {lb: s[col]["mean"] for lb, s in results.get(group, {}).items()
-           if s[col]["mean"] is not None and not math.isnan(s[col]["mean"])}
+    row = {lb: b.stat(col).mean for lb, b in results.get(group, {}).items()
+           if b.stat(col).mean is not None and not math.isnan(b.stat(col).mean)}
     return key(row, key=row.get) if row else None
 
 
@@ -169,7 +200,7 @@ def rpe_leaders(bars, claim, _):
     """Whether the networks of ``claim.nets`` have the best RPEs, in that order."""
     r = bars.results
     leaders = _labels(bars, claim)
-    rpe = {lb: s["rpe"]["mean"] for lb, s in r.get(None, {}).items()}
+    rpe = {lb: b.stats.rpe.mean for lb, b in r.get(None, {}).items()}
     rank = sorted(rpe, key=lambda lb: (rpe[lb] is None, -(rpe[lb] or 0.0)))  # an undefined RPE ranks last
     return Measured(None if None in leaders else rank[: len(leaders)] == leaders, " > ".join(rank) or "n/a")
 
@@ -179,7 +210,7 @@ def opponent_accuracy(bars, claim, _):
     r = bars.results
     net, alpha = claim.nets[0]
     lab = find(r, None, net, alpha) or find(r, None, net)
-    acc = None if lab is None else r[None][lab].get("opponent_accuracy")
+    acc = None if lab is None else r[None][lab].stats.opponent_accuracy
     return Measured(acc, "n/a" if acc is None else f"{100 * acc:.1f}%")
 
 
@@ -225,9 +256,10 @@ ENERGIES = (10.0, 15.0, 20.0)
 
 def _energy_shown(r, lab, col):
     at = [mean(r, e, lab, col) for e in ENERGIES]
-    retrained = all(not r.get(e, {}).get(lab, {}).get("note") for e in (10.0, 20.0))
+    retrained = all(not _note(r, e, lab) for e in (10.0, 20.0))
     how = "" if retrained else " [played by the energy-15 network: not retrained as in the thesis]"
-    return at, f"10: {fmt(relative_increase(at[0], at[1]), 1, '%')}, 20: {fmt(relative_increase(at[2], at[1]), 1, '%')} vs 15" + how
+    at10, at20 = relative_increase(at[0], at[1]), relative_increase(at[2], at[1])
+    return at, f"10: {fmt(at10, 1, '%')}, 20: {fmt(at20, 1, '%')} vs 15" + how
 
 
 def more_reward_at_10(bars, claim, lab):
@@ -243,7 +275,8 @@ def less_at_10_slightly_less_at_20(bars, claim, lab):
     r = bars.results
     (r10, r15, r20), shown = _energy_shown(r, lab, "reward")
     return Measured(None if None in (r10, r15, r20) else
-                    clearly_above(r, 15.0, lab, r, 10.0, lab) and claim.threshold <= relative_increase(r20, r15) <= 0, shown)
+                    clearly_above(r, 15.0, lab, r, 10.0, lab)
+                    and claim.threshold <= relative_increase(r20, r15) <= 0, shown)
 
 
 def rpe_higher_at_10_same_at_20(bars, claim, lab):
@@ -252,7 +285,8 @@ def rpe_higher_at_10_same_at_20(bars, claim, lab):
     r = bars.results
     (q10, q15, q20), shown = _energy_shown(r, lab, "rpe")
     return Measured(None if None in (q10, q15, q20) else
-                    clearly_above(r, 10.0, lab, r, 15.0, lab, "rpe") and abs(relative_increase(q20, q15)) <= claim.tolerance, shown)
+                    clearly_above(r, 10.0, lab, r, 15.0, lab, "rpe")
+                    and abs(relative_increase(q20, q15)) <= claim.tolerance, shown)
 
 
 # -- measures: Figs. 5.11/5.12 (reward areas) ----------------------------------------------------------
@@ -305,9 +339,9 @@ def share_of_bound(bars, claim, _):
     """OMN+CoNN's smallest share of the exact full-information bound over the area sizes; ``None`` (no row)
     without OMN+CoNN or without the bound."""
     r, sizes, omn = bars.results, bars.groups, _area_omn(bars)
-    if omn is None or not all(r[s][omn].get("fraction_of_bound") is not None for s in sizes):
+    if omn is None or not all(r[s][omn].fraction_of_bound is not None for s in sizes):
         return None
-    fr = {s: r[s][omn]["fraction_of_bound"] for s in sizes}
+    fr = {s: r[s][omn].fraction_of_bound for s in sizes}
     return Measured(all(f >= claim.threshold for f in fr.values()),
                     ", ".join(f"size {s}: {100 * f:.1f}%" for s, f in fr.items()))
 
@@ -321,7 +355,7 @@ def _against_standard(bars, claim):
     lab = find(r, None, net)
     before = mean(standard or {}, None, find(standard or {}, None, net)) if standard else None
     d = relative_increase(mean(r, None, lab), before)
-    note = r.get(None, {}).get(lab, {}).get("note") if lab else None
+    note = _note(r, None, lab) if lab else None
     return lab, d, f"{fmt(d, 1, '%')} vs the standard set" + (f" [{note}]" if note else "")
 
 
@@ -343,7 +377,8 @@ def energy_against_double_blind(bars, claim, _):
     """VNN's energy used per game against the double-blind with-fog opponent."""
     r = bars.results
     vnn = find(r, None, "vnn")
-    s = r.get(None, {}).get(vnn, {}).get("per_strategy", {}).get("double_blind") if vnn else None
-    return Measured(None if s is None else s["energy"]["mean"],
-                    "n/a" if s is None else f"energy used {s['energy']['mean']:.2f}, reward "
-                    f"{s['reward']['mean']:.2f}, steps {s['steps']['mean']:.1f} per game")
+    bar = r.get(None, {}).get(vnn) if vnn else None
+    s = (bar.stats.per_strategy or {}).get("double_blind") if bar is not None else None
+    return Measured(None if s is None else s.energy.mean,
+                    "n/a" if s is None else f"energy used {s.energy.mean:.2f}, reward {s.reward.mean:.2f}, "
+                    f"steps {s.steps.mean:.1f} per game")
