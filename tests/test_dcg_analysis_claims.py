@@ -170,3 +170,27 @@ def test_energy_claims_are_made_per_network_in_bar_order():
 def test_the_bound_claim_is_left_out_without_the_bound():
     results = {s: {"VNN": _summary(0.1 * s), "OMN+CoNN": _summary(0.2 * s)} for s in (1, 2)}
     assert not any("full-information bound" in v.claim for v in claims(EXPERIMENTS["area"], results))
+
+
+def test_the_committed_figures_are_judged_and_written_again_identically():
+    """Re-judging the stored bars of results/dcg/figure_*.json gives the stored claims and markdown (no games)."""
+    import json
+    import pathlib
+    import re
+
+    from jaxdc.dcg.analysis.experiment import ExperimentResults, group_key, stored_standard
+    from jaxdc.dcg.analysis.report import figure_markdown
+
+    folder = pathlib.Path(__file__).resolve().parents[1] / "results" / "dcg"
+    if not (folder / "figure_standard.json").is_file():
+        pytest.skip("no committed DCG figures")
+    for name, exp in EXPERIMENTS.items():
+        rec = json.loads((folder / f"figure_{name}.json").read_text())
+        results = {g: rec["results"][group_key(g)] for g in exp.groups if group_key(g) in rec["results"]}
+        bounds = {g: rec["bounds"][group_key(g)] for g in exp.groups if group_key(g) in rec["bounds"]}
+        verdicts = claims(exp, results, stored_standard(str(folder)) if name == "double_blind" else None)
+        assert [{"claim": v.claim, "ours": v.ours, "agrees": v.agrees} for v in verdicts] == rec["claims"]
+        md = (folder / f"figure_{name}.md").read_text()
+        images = re.findall(r"^!\[[^\]]*\]\(([^)]*)\)$", md, flags=re.M)
+        assert figure_markdown(exp, ExperimentResults(results, bounds, {}), verdicts, rec["missing"], rec["command"],
+                               images) == md

@@ -110,8 +110,9 @@ def _verdicts(exp: Experiment, results: dict, standard: dict | None) -> list[Ver
     bars = Bars(bars_of(results), None if standard is None else bars_of(standard),
                 tuple(g for g in exp.groups if g in results))
     cset = CLAIMS[exp.name]
-    labs = (sorted({lb for row in results.values() for lb in row}, key=_network_order) if cset.per_network
-            else [None])
+    # per network in bar order; two bars of one network (EMNN's alphas) in the order they were played
+    labs = (sorted(dict.fromkeys(lb for row in results.values() for lb in row), key=_network_order)
+            if cset.per_network else [None])
     rows = []
     for lab in labs:
         for claim in cset.claims:
