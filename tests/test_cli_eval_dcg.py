@@ -11,7 +11,8 @@ import pytest
 
 from jaxdc import pretrained
 from jaxdc.cli import eval_dcg as cli
-from jaxdc.dcg.analysis.evaluation import evaluate
+from jaxdc.cli.eval_dcg_settings import FigureSettings, OptimumSettings, RenderSettings
+from jaxdc.dcg.analysis.collector_eval import evaluate
 from jaxdc.dcg.learned import init_params, make_network
 
 EPISODES = "16"  # one value for every evaluation here: the compiled program is shared
@@ -220,13 +221,13 @@ def test_a_command_line_without_subcommand_is_an_evaluation(nets, tmp_path, caps
 
 def test_settings_are_settled_once():
     args = cli.build_parser().parse_args(["optimum", "--double-blind", "--energy", "10"])
-    s = cli.OptimumSettings.from_args(args)
+    s = OptimumSettings.from_args(args)
     assert s.game["strategies"] == cli.DOUBLE_BLIND_STRATEGIES and s.energy == 10.0 and s.progress
     with pytest.raises(dataclasses.FrozenInstanceError):
         s.energy = 5.0
     args = cli.build_parser().parse_args(["render", "--net", "vnn", "--strategy", "patrol,restricted"])
     with pytest.raises(ValueError, match="one strategy"):
-        cli.RenderSettings.from_args(args)
+        RenderSettings.from_args(args)
     args = cli.build_parser().parse_args(["figure", "all", "--no-cache", "--no-bound"])
-    f = cli.FigureSettings.from_args(args)
+    f = FigureSettings.from_args(args)
     assert f.experiments == tuple(cli.EXPERIMENTS) and not f.cache.reuse and not f.play.bound

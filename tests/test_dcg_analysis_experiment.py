@@ -11,7 +11,7 @@ import os
 import pytest
 
 from jaxdc.dcg.analysis.cache import EvaluationCache
-from jaxdc.dcg.analysis.claims import Verdict
+from jaxdc.core.claims import Verdict
 from jaxdc.dcg.analysis.experiment import ExperimentResults, ExperimentSettings, group_key, network_pool
 from jaxdc.dcg.analysis.figures import EXPERIMENTS
 from jaxdc.dcg.analysis.report import (figure_csv, figure_markdown, figure_payload, optimum_name, optimum_payload,
@@ -100,7 +100,7 @@ def test_figure_tables_and_payload():
     exp = EXPERIMENTS["standard"]
     data = ExperimentResults({None: {"VNN": _bar(5.0)}}, {None: {"total": 8.0}}, {})
     data.results[None]["VNN"]["fraction_of_bound"] = 0.625
-    verdicts = [Verdict("a claim", "ours", "yes")]
+    verdicts = [Verdict("5.6", "a claim", "ours", "yes")]
     md = figure_markdown(exp, data, verdicts, ["IMNN trained in the standard setting"], "cmd", ["img/x.png"])
     assert "| VNN | 5.000 ± 0.500 | 0.3000 ± 0.5000 | — | 8.0000 / 62.5% | 5.000 | 5.000 | 5.000 |  |" in md
     assert "| a claim | ours | yes |" in md and md.endswith("IMNN trained in the standard setting.\n")

@@ -147,3 +147,33 @@ def test_play_episode_returns_every_state_of_one_game():
     assert [int(s.opponent.pos.sum()) for s in again] == [int(s.opponent.pos.sum()) for s in states]
     with pytest.raises(ValueError, match="max_steps"):
         play_episode(env, params, right, jax.random.PRNGKey(4), 0)
+
+
+def test_summary_is_a_typed_record_whose_json_is_the_old_dict():
+    """summarize's JSON is the Summary's to_json, key for key and in order; from_dict reads it back."""
+    import json
+
+    from jaxdc.dcg.summary import MeanSD, Summary
+
+    rng = np.random.default_rng(1)
+    n = 40
+    game = types.SimpleNamespace(ep_reward=rng.integers(0, 5, n).astype(np.float32),
+                                 ep_energy=rng.integers(0, 4, n), outcome=rng.integers(1, 4, n),
+                                 time=rng.integers(1, 20, n), strategy=rng.integers(0, 3, n))
+    final = types.SimpleNamespace(game=game, predicted=rng.integers(0, 9, n), correct=rng.integers(0, 5, n))
+    strategies = ("patrol", "restricted", "empty")
+    final.game.strategy[final.game.strategy == 2] = 1  # no games of the last strategy: undefined statistics
+    s = ev.summary(final, strategies)
+    assert isinstance(s, Summary) and isinstance(s.reward, MeanSD) and s.episodes == n
+    assert s.per_strategy["empty"].reward == MeanSD(None, None, "no episodes")
+    old = episode_summary(game, OUTCOMES)
+    old["opponent_accuracy"] = ev.accuracy(final.correct, final.predicted)
+    old["per_strategy"] = {}
+    for i, name in enumerate(strategies):
+        mask = game.strategy == i
+        old["per_strategy"][name] = {**episode_summary(game, OUTCOMES, mask=mask),
+                                     "opponent_accuracy": ev.accuracy(final.correct[mask], final.predicted[mask])}
+    assert json.dumps(ev.summarize(final, strategies)) == json.dumps(old) == json.dumps(s.to_json())
+    assert Summary.from_dict(json.loads(json.dumps(old))) == s
+    bare = Summary.from_dict({"reward": {"mean": 1.0, "sd": 0.5}})  # a hand-made record: the rest undefined
+    assert bare.energy == MeanSD(None, None) and bare.episodes == 0 and bare.per_strategy is None

@@ -34,9 +34,6 @@ exits 130 leaving the previous files or the complete new set.
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import json
-import math
 import os
 import shlex
 import sys
@@ -44,21 +41,20 @@ import sys
 import jax
 
 from jaxdc.cli.args import integer, positive_float, positive_int, seed
+from jaxdc.cli.eval_dcg_settings import EvaluateSettings, FigureSettings, OptimumSettings, RenderSettings
 from jaxdc.cli.runner import run
 from jaxdc.core.energy import MAX_FINITE_ENERGY
 from jaxdc.core.trajectory import play_episode
 from jaxdc.dcg import learned as learned_lib
-from jaxdc.dcg.analysis.cache import EvaluationCache
 from jaxdc.dcg.analysis.claims import claims
-from jaxdc.dcg.analysis.evaluation import evaluate
-from jaxdc.dcg.analysis.experiment import (ExperimentSettings, group_key, network_pool, run_experiment,
-                                           stored_standard)
+from jaxdc.dcg.analysis.collector_eval import evaluate
+from jaxdc.dcg.analysis.experiment import group_key, network_pool, run_experiment, stored_standard
 from jaxdc.dcg.analysis.figures import EXPERIMENTS, FIGURES, missing
 from jaxdc.dcg.analysis.report import (figure_csv, figure_markdown, figure_payload, optimum_name, optimum_payload,
                                        optimum_text, report, result_name)
 from jaxdc.dcg.env import CAPTURES, DCG, OPPONENT_STARTS, OUTCOMES, PATROL_TARGETS
+from jaxdc.dcg.exact.machine import MAX_GRID_SIZE
 from jaxdc.dcg.exact.many_items import sampled_bound
-from jaxdc.dcg.exact.one_item import MAX_GRID_SIZE
 from jaxdc.dcg.opponents import CHASE_TIES, DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
 from jaxdc.io import (atomic_write_json, atomic_write_set, check_output_folder, enable_compilation_cache,
                       json_text)
@@ -220,105 +216,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=RESULTS, help="folder for the result JSON")
     p.set_defaults(run=_optimum, error=p.error)
     return parser
-
-
-# -- settled arguments --------------------------------------------------------------------------
-def _strategy_set(args):
-    return DOUBLE_BLIND_STRATEGIES if args.double_blind else args.strategies
-
-
-@dataclasses.dataclass(frozen=True)
-class EvaluateSettings:
-    """One evaluation: the collector (a run folder or file, or a shipped name), the game's changes, the games."""
-
-    checkpoint: str | None
-    net: str | None
-    energy: float | None
-    strategies: tuple | None
-    reward_area: int | None
-    max_steps: int | None
-    greedy: bool
-    episodes: int
-    seed: int
-    rpe_zero: str
-    bound: bool
-    json: bool
-    out: str
-
-    @classmethod
-    def from_args(cls, args) -> "EvaluateSettings":
-        return cls(args.checkpoint, args.net, args.energy, _strategy_set(args), args.reward_area, args.max_steps,
-                   args.greedy, args.episodes, args.seed, args.rpe_zero, not args.no_bound, args.json, args.out)
-
-
-@dataclasses.dataclass(frozen=True)
-class FigureSettings:
-    """One ``figure`` run: the experiments, the parameter files, how the bars are played, where results go."""
-
-    experiments: tuple
-    nets_dir: str | None
-    play: ExperimentSettings
-    cache: EvaluationCache
-    out: str
-    img: str
-
-    @classmethod
-    def from_args(cls, args) -> "FigureSettings":
-        names = tuple(EXPERIMENTS) if args.figure == "all" else (FIGURES[args.figure],)
-        play = ExperimentSettings(args.episodes, args.seed, args.greedy, not args.no_bound, args.bound_episodes)
-        return cls(names, args.nets_dir, play, EvaluationCache(args.cache, reuse=not args.no_cache), args.out,
-                   args.img)
-
-
-@dataclasses.dataclass(frozen=True)
-class RenderSettings:
-    """One drawn game: the collector, its opponent strategy and game, and the pictures."""
-
-    checkpoint: str | None
-    net: str | None
-    strategy: str
-    seed: int
-    energy: float | None
-    reward_area: int | None
-    max_steps: int
-    greedy: bool
-    cols: int | None
-    fps: int
-    out: str
-
-    @classmethod
-    def from_args(cls, args) -> "RenderSettings":
-        if len(args.strategy) != 1:
-            raise ValueError(f"--strategy takes one strategy, got {','.join(args.strategy)}")
-        return cls(args.checkpoint, args.net, args.strategy[0], args.seed, args.energy, args.reward_area,
-                   args.max_steps, args.greedy, args.cols, args.fps, args.out)
-
-
-@dataclasses.dataclass(frozen=True)
-class OptimumSettings:
-    """The sampled full-information bound: the game (constructor options and numeric settings), the games."""
-
-    game: dict  # DCG(...) keyword arguments
-    energy: float
-    max_steps: int
-    chase_tie: str
-    episodes: int
-    seed: int
-    progress: bool
-    json: bool
-    out: str
-
-    @classmethod
-    def from_args(cls, args) -> "OptimumSettings":
-        if not (math.isinf(args.energy) or args.energy == math.floor(args.energy)):
-            raise ValueError(f"--energy must be a whole number or inf for the exact bound, got {args.energy:g}")
-        game = dict(grid_size=args.grid_size, total_reward=args.total_reward, history=1, obs_history=False,
-                    strategies=_strategy_set(args), opponent_start=args.opponent_start,
-                    patrol_target=args.patrol_target, items_on_base=not args.no_items_on_base,
-                    reward_when_caught=not args.no_reward_when_caught, capture=args.capture,
-                    safe_base=args.safe_base, opponent_enters_base=not args.opponent_out_of_base)
-        return cls(game, args.energy, args.max_steps, args.chase_tie, args.episodes, args.seed,
-                   not args.no_progress, args.json, args.out)
 
 
 def _load(checkpoint, net):

@@ -2,7 +2,7 @@
 
 :func:`evaluate_policy` plays many games of a ``policy(key, obs, state) ->
 action`` at once (:func:`jaxdc.core.rollout.run_episodes`, jitted) and
-:func:`summarize` turns them into the thesis' numbers: the *episode reward*
+:func:`summary` turns them into the thesis' numbers (a :class:`~jaxdc.dcg.summary.Summary`): the *episode reward*
 and the *reward per energy* (RPE, as for the DCP: the mean of per-game
 ``reward / energy``), each as mean and SD over the games (section 5.5.3: "We
 run experiments in 10,000 randomly generated environments"), how the games
@@ -34,6 +34,7 @@ from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import RPE_ZERO, episode_summary
 from jaxdc.core.validate import check_positive_int
 from jaxdc.dcg.env import DCG, OUTCOMES, EnvParams, EnvState
+from jaxdc.dcg.summary import MeanSD, Summary
 
 #: Default number of games (section 5.5.3).
 EPISODES = 10_000
@@ -166,31 +167,35 @@ def accuracy(correct, predicted) -> float | None:
     return None if total == 0 else float(np.sum(correct)) / total
 
 
-def summarize(final: ScoredState, strategies, rpe_zero: str = "exclude") -> dict:
-    """The section-5.5 statistics of :func:`evaluate_policy`'s result.
+def summary(final: ScoredState, strategies, rpe_zero: str = "exclude") -> Summary:
+    """The section-5.5 statistics of :func:`evaluate_policy`'s result, as a :class:`~jaxdc.dcg.summary.Summary`.
 
-    Returns the fields of :func:`jaxdc.core.stats.episode_summary` (``reward``,
-    ``energy``, ``rpe``, ``steps``: ``{"mean", "sd"}``; ``episodes``;
-    ``outcomes``), ``opponent_accuracy`` (float or ``None``) and
-    ``per_strategy``: the same fields for the games of each strategy in
-    ``strategies`` (the env's strategy names; ``final.game.strategy``
-    indexes them). Weighted by their ``episodes``, the per-strategy means add
-    up to the total.
+    The fields of :func:`jaxdc.core.stats.episode_summary` (``reward``,
+    ``energy``, ``rpe``, ``steps``: mean and SD; ``episodes``; ``outcomes``),
+    ``opponent_accuracy`` (float or ``None``) and ``per_strategy``: the same
+    fields for the games of each strategy in ``strategies`` (the env's
+    strategy names; ``final.game.strategy`` indexes them). Weighted by their
+    ``episodes``, the per-strategy means add up to the total.
     """
     if rpe_zero not in RPE_ZERO:
         raise ValueError(f"rpe_zero must be one of {RPE_ZERO}, got {rpe_zero!r}")
     final = jax.device_get(final)
     strategy = np.asarray(final.game.strategy)
     predicted, correct = np.asarray(final.predicted), np.asarray(final.correct)
-    out = episode_summary(final.game, OUTCOMES, rpe_zero)
-    out["opponent_accuracy"] = accuracy(correct, predicted)
-    out["per_strategy"] = {}
-    for i, name in enumerate(strategies):
-        mask = strategy == i
+
+    def games(mask=None, per_strategy=None):
         s = episode_summary(final.game, OUTCOMES, rpe_zero, mask)
-        s["opponent_accuracy"] = accuracy(correct[mask], predicted[mask])
-        out["per_strategy"][name] = s
-    return out
+        acc = accuracy(correct, predicted) if mask is None else accuracy(correct[mask], predicted[mask])
+        return Summary(MeanSD.from_dict(s["reward"]), MeanSD.from_dict(s["energy"]), MeanSD.from_dict(s["rpe"]),
+                       s["episodes"], s["outcomes"], MeanSD.from_dict(s["steps"]), acc, per_strategy)
+
+    return games(per_strategy={name: games(strategy == i) for i, name in enumerate(strategies)})
+
+
+def summarize(final: ScoredState, strategies, rpe_zero: str = "exclude") -> dict:
+    """:func:`summary` as the JSON object the result files store (:meth:`~jaxdc.dcg.summary.Summary.to_json`):
+    ``{"reward": {"mean", "sd"}, ..., "opponent_accuracy", "per_strategy": {name: {...}}}``."""
+    return summary(final, strategies, rpe_zero).to_json()
 
 
 def relative_increase(value: float | None, baseline: float | None) -> float | None:

@@ -21,7 +21,7 @@ import jax
 from jaxdc import pretrained
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis.cache import EvaluationCache
-from jaxdc.dcg.analysis.evaluation import ExactBounds, evaluate, fraction
+from jaxdc.dcg.analysis.collector_eval import ExactBounds, evaluate, fraction
 from jaxdc.dcg.analysis.figures import Experiment, select
 from jaxdc.dcg.exact.many_items import sampled_bound
 from jaxdc.io import unlimited_to_json

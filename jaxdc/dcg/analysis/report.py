@@ -1,7 +1,8 @@
 """Results of section 5.5 as text: one evaluation's report and file name, a figure's tables and JSON payload,
 and the sampled full-information bound's record.
 
-These turn the dicts of :func:`jaxdc.dcg.analysis.evaluation.evaluate`,
+These turn the dicts of :func:`jaxdc.dcg.analysis.collector_eval.evaluate` (a figure's bars read as
+:class:`~jaxdc.dcg.analysis.measures.Bar` records),
 :func:`jaxdc.dcg.analysis.experiment.run_experiment` and
 :func:`jaxdc.dcg.exact.many_items.sampled_bound` into what ``python -m eval.dcg``
 prints and writes; they compute nothing.
@@ -16,10 +17,12 @@ import os
 
 import numpy as np
 
-from jaxdc.dcg.analysis.claims import Verdict
+from jaxdc.core.claims import Verdict
 from jaxdc.dcg.analysis.experiment import ExperimentResults, group_key
 from jaxdc.dcg.analysis.figures import Experiment
+from jaxdc.dcg.analysis.measures import bars_of
 from jaxdc.dcg.opponents import DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES
+from jaxdc.dcg.summary import MeanSD
 from jaxdc.io import unlimited_to_json
 
 
@@ -28,11 +31,11 @@ from jaxdc.io import unlimited_to_json
 UNDEFINED = "—"
 
 
-def _mean_sd(stat: dict, digits: int) -> str:
+def _mean_sd(stat: MeanSD, digits: int) -> str:
     """``mean ± sd`` with ``digits`` decimals, or :data:`UNDEFINED` (with its reason) when there is no mean."""
-    if stat["mean"] is None:
-        return UNDEFINED + (f" ({stat['undefined']})" if stat.get("undefined") else "")
-    return f"{stat['mean']:.{digits}f} ± {stat['sd']:.{digits}f}"
+    if stat.mean is None:
+        return UNDEFINED + (f" ({stat.undefined})" if stat.undefined else "")
+    return f"{stat.mean:.{digits}f} ± {stat.sd:.{digits}f}"
 
 
 def _setting_text(x) -> str:
@@ -60,7 +63,8 @@ def result_name(r: dict) -> str:
 def _line(r: dict, bound: float | None) -> str:
     acc = r["opponent_accuracy"]
     steps = UNDEFINED if r["steps"]["mean"] is None else f"{r['steps']['mean']:.1f}"
-    text = f"reward {_mean_sd(r['reward'], 3)}   RPE {_mean_sd(r['rpe'], 4)}   steps {steps}"
+    reward, rpe = _mean_sd(MeanSD.from_dict(r["reward"]), 3), _mean_sd(MeanSD.from_dict(r["rpe"]), 4)
+    text = f"reward {reward}   RPE {rpe}   steps {steps}"
     if acc is not None:
         text += f"   opponent accuracy {100 * acc:.1f}%"
     if r.get("fraction_of_bound") is not None and bound is not None:
@@ -107,22 +111,22 @@ def figure_markdown(exp: Experiment, data: ExperimentResults, verdicts: list[Ver
               "network | reward | RPE | opponent accuracy | " + ("bound / fraction | " if data.bounds else "")
               + " | ".join(f"{s} reward" for s in exp.strategies) + " | note |",
               "|" + "---|" * (5 + bool(exp.group_name) + bool(data.bounds) + len(exp.strategies))]
-    for g, row in results.items():
-        for lb, r in row.items():
-            acc = r["opponent_accuracy"]
+    for g, row in bars_of(results).items():
+        for lb, bar in row.items():
+            acc, per = bar.stats.opponent_accuracy, bar.stats.per_strategy or {}
             cells = ([group_key(g)] if exp.group_name else []) + [
-                lb, _mean_sd(r["reward"], 3), _mean_sd(r["rpe"], 4), "—" if acc is None else f"{100 * acc:.1f}%"]
+                lb, _mean_sd(bar.stats.reward, 3), _mean_sd(bar.stats.rpe, 4),
+                "—" if acc is None else f"{100 * acc:.1f}%"]
             if data.bounds:
                 b = data.bounds.get(g)
-                fr = r.get("fraction_of_bound")
+                fr = bar.fraction_of_bound
                 cells.append("—" if b is None else f"{b['total']:.4f} / " + ("—" if fr is None else f"{100 * fr:.1f}%"))
-            cells += [f"{r['per_strategy'][s]['reward']['mean']:.3f}"
-                      if s in r["per_strategy"] and r["per_strategy"][s]["reward"]["mean"] is not None else "—"
+            cells += [f"{per[s].reward.mean:.3f}" if s in per and per[s].reward.mean is not None else "—"
                       for s in exp.strategies]
-            cells.append(r["note"] or "")
+            cells.append(bar.note)
             lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "| thesis claim | ours | agrees |", "|---|---|---|"]
-    lines += [f"| {c} | {o} | {a} |" for c, o, a in verdicts]
+    lines += [f"| {v.claim} | {v.ours} | {v.agrees} |" for v in verdicts]
     if missing:
         lines += ["", "Missing networks (no parameter file trained as the thesis did): " + "; ".join(missing) + "."]
     return "\n".join(lines) + "\n"
@@ -135,7 +139,7 @@ def figure_payload(exp: Experiment, data: ExperimentResults, verdicts: list[Verd
             "episodes": episodes, "seed": seed, "greedy": greedy,
             "results": {group_key(g): row for g, row in data.results.items()},
             "bounds": {group_key(g): b for g, b in data.bounds.items()},
-            "claims": [{"claim": c, "ours": o, "agrees": a} for c, o, a in verdicts], "missing": missing}
+            "claims": [{"claim": v.claim, "ours": v.ours, "agrees": v.agrees} for v in verdicts], "missing": missing}
 
 
 # -- the sampled full-information bound ------------------------------------------------------------

@@ -1,5 +1,7 @@
 """Exact yardsticks of the DCG: what a collector that knew everything could collect.
 
+* :mod:`jaxdc.dcg.exact.machine` -- the opponent as a finite machine and the rules on arrays
+  of cells, shared by both searches.
 * :mod:`jaxdc.dcg.exact.one_item` -- the one-item game of section 5.5.5 (Fig. 5.10),
   solved for every start state at once: the exact full-information bound of a
   reward area, and plans that reach it.

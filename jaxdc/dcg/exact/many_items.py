@@ -17,7 +17,7 @@ the optimum, and its parents give an open-loop action plan that earns it.
 
 The transition is that of :meth:`jaxdc.dcg.env.DCG.step_env`, with the
 opponent tabulated from the env's own strategy functions by
-:mod:`jaxdc.dcg.exact.one_item` (states merged when they behave alike). A collector's
+:mod:`jaxdc.dcg.exact.machine` (states merged when they behave alike). A collector's
 episode reward in a game can never exceed that game's optimum, whatever it
 observes, so :func:`sampled_bound` -- the mean optimum over games drawn by
 :meth:`~jaxdc.dcg.env.DCG.reset_env` -- bounds the expected episode reward of every network
@@ -41,7 +41,7 @@ import numpy as np
 
 from jaxdc.core.memory import check_fits, tree_bytes
 from jaxdc.core.validate import check_positive_int
-from jaxdc.dcg.exact import one_item
+from jaxdc.dcg.exact import machine
 
 #: The largest search space accepted: ``2^d`` item subsets x cells x energy levels x opponent classes
 #: (about 0.4 GB of search arrays at the limit). The standard 5 x 5 game needs at most 2^10 x 25 x 15 x 25.
@@ -68,12 +68,12 @@ class GameOptimum(NamedTuple):
 
 
 def opponent_machines(env, params) -> Machines:
-    """Tabulate every strategy of ``env`` (validates ``params`` as :func:`jaxdc.dcg.exact.one_item.solve`)."""
-    if env.grid_size > one_item.MAX_GRID_SIZE:
-        raise ValueError(f"grid_size must be <= {one_item.MAX_GRID_SIZE} for the exact optimum, got {env.grid_size}")
-    energy, max_steps = one_item.check_params(params)
-    weight = one_item.reset_pairs(env)
-    tables = [one_item.opponent_machine(env, params, s, weight) for s in range(len(env.strategies))]
+    """Tabulate every strategy of ``env`` (validates ``params`` with :func:`jaxdc.dcg.exact.machine.check_params`)."""
+    if env.grid_size > machine.MAX_GRID_SIZE:
+        raise ValueError(f"grid_size must be <= {machine.MAX_GRID_SIZE} for the exact optimum, got {env.grid_size}")
+    energy, max_steps = machine.check_params(params)
+    weight = machine.reset_pairs(env)
+    tables = [machine.opponent_machine(env, params, s, weight) for s in range(len(env.strategies))]
     nxt, pos, init = zip(*tables)
     return Machines(next=nxt, pos=pos, init=init, energy=energy, max_steps=max_steps)
 
@@ -104,7 +104,7 @@ def game_optimum(env, machines: Machines, state) -> GameOptimum:
     b = int(machines.init[s][_flat(state.opponent.home, n), _flat(state.opponent.target, n)])
     if b < 0:
         raise ValueError("the opponent's (start, far end) pair is never drawn by this env's reset")
-    nxt, opos = one_item.local_machines(machines.next[s], machines.pos[s], np.array([b]))
+    nxt, opos = machine.local_machines(machines.next[s], machines.pos[s], np.array([b]))
     nxt, opos = nxt[0], opos[0]  # [L, C], [L]; local state 0 is the reset state
 
     energy, max_steps = machines.energy, machines.max_steps
@@ -120,7 +120,7 @@ def game_optimum(env, machines: Machines, state) -> GameOptimum:
     masks = np.arange(2**d)
     value = ((masks[:, None] >> np.arange(d)) & 1) @ items[cells]  # reward of each collected subset
     full = 2**d - 1
-    succ = one_item.successors(n)
+    succ = machine.successors(n)
     parent = np.full(size, -1, np.int32)
     action = np.zeros(size, np.int8)
     seen = np.zeros(size, bool)
@@ -134,7 +134,7 @@ def game_optimum(env, machines: Machines, state) -> GameOptimum:
         o2 = nxt[o, p]  # (1) the opponent moves
         q2 = opos[o2]
         p2 = succ[p]  # [F, 9] (2) the collector moves and collects
-        free, met = one_item.captures(env, p, q2, p2)  # (1) not caught before moving, (3) caught after
+        free, met = machine.captures(env, p, q2, p2)  # (1) not caught before moving, (3) caught after
         bit = bit_of[p2]
         new = (bit >= 0) & (((m[:, None] >> np.maximum(bit, 0)) & 1) == 0)
         m2 = np.where(new, m[:, None] | (1 << np.maximum(bit, 0)), m[:, None])
