@@ -84,7 +84,7 @@ def restore(directory, target, expected: dict | None = None, step: int | None = 
 
     ``expected`` holds metadata entries that must match exactly (e.g. the
     network name and grid size); every array must have ``target``'s shape
-    and dtype. ``upgrade`` (e.g. :func:`jaxdc.training.metadata.upgrade`)
+    and dtype. ``upgrade`` (e.g. :func:`jaxdc.metadata.upgrade`)
     turns the stored metadata into the current format before it is compared
     and returned.
     """

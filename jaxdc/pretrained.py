@@ -2,11 +2,11 @@
 
 One parameter file is a single ``.msgpack`` (flax serialization of the
 parameter pytree) with a JSON sidecar ``.json`` of metadata: its format
-(``"format"``, :mod:`jaxdc.training.metadata`), the network name
+(``"format"``, :mod:`jaxdc.metadata`), the network name
 (``"net"``) and the problem (``"problem"``: ``"dcp"`` or ``"dcg"``), plus
 whatever the writer needs to rebuild the environment and to say how the file
 was made (settings, steps, seed, the command that made it). Metadata of an
-older format is upgraded on load (:func:`jaxdc.training.metadata.upgrade`), so
+older format is upgraded on load (:func:`jaxdc.metadata.upgrade`), so
 files of every format read the same.
 
 The shipped files live in ``jaxdc/assets/<problem>/<name>.msgpack``;
@@ -20,8 +20,6 @@ subclass adds how to read the setting of training from the metadata.
 from __future__ import annotations
 
 import dataclasses
-import json
-import math
 import os
 from typing import Any
 
@@ -30,9 +28,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import serialization
 
-from jaxdc.core.validate import is_int
-from jaxdc.io import atomic_write_set, json_text
-from jaxdc.training.metadata import FORMAT, upgrade
+from jaxdc.io import atomic_write_set, json_text, read_json
+from jaxdc.metadata import FORMAT, check_values, upgrade
 
 ASSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "assets")
 
@@ -78,7 +75,7 @@ def save(path, params, metadata: dict) -> str:
     metadata as strict JSON, the parameters refused if any holds a NaN or an
     infinity), then land together (:func:`jaxdc.io.atomic_write_set`), so an
     error or an interruption leaves the old pair or the complete new one. The
-    sidecar records the current ``"format"`` (:data:`jaxdc.training.metadata.FORMAT`).
+    sidecar records the current ``"format"`` (:data:`jaxdc.metadata.FORMAT`).
     """
     for key in ("net", "problem"):
         if key not in metadata:
@@ -98,32 +95,9 @@ def save(path, params, metadata: dict) -> str:
     return blob
 
 
-def _refuse_constant(name):
-    raise ValueError(f"{name} is not JSON (JSON has no NaN or Infinity)")
-
-
-#: Metadata entries that are counts (ints >= 1, ``seed`` >= 0) and the energy (a number > 0), checked on read.
-_COUNTS = ("grid_size", "total_reward", "max_steps", "steps", "updates", "min_total_reward", "reward_area",
-           "min_reward_area")
-
-
 def check_metadata_values(meta: dict, where: str) -> dict:
-    """``meta`` if its settings have sensible types and ranges; else a ``ValueError`` naming ``where`` and the key."""
-    for key in _COUNTS:
-        v = meta.get(key)
-        if v is not None and (not is_int(v, numpy=False) or v < 1):
-            raise ValueError(f"{where}: metadata {key}={v!r} must be an int >= 1")
-    for key in ("seed", "history"):
-        v = meta.get(key)
-        if v is not None and (not is_int(v, numpy=False) or v < 0):
-            raise ValueError(f"{where}: metadata {key}={v!r} must be an int >= 0")
-    if "energy" in meta:
-        values = meta["energy"] if isinstance(meta["energy"], list) else [meta["energy"]]
-        for v in values:
-            ok = v == "inf" or (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0)
-            if not ok:
-                raise ValueError(f"{where}: metadata energy={meta['energy']!r} must hold numbers > 0 (or \"inf\")")
-    return meta
+    """``meta`` if its settings have sensible types and ranges (:func:`jaxdc.metadata.check_values`)."""
+    return check_values(meta, where)
 
 
 def read_metadata(path) -> dict:
@@ -136,10 +110,9 @@ def read_metadata(path) -> dict:
     if not os.path.isfile(meta):
         raise ValueError(f"parameter file {blob}: metadata {meta} not found (was it written by jaxdc.pretrained.save?)")
     try:
-        with open(meta) as f:
-            stored = json.load(f, parse_constant=_refuse_constant)
-    except (OSError, ValueError) as e:
-        raise ValueError(f"parameter file {blob}: metadata {meta} unreadable: {e}") from None
+        stored = read_json(meta)
+    except ValueError as e:
+        raise ValueError(f"parameter file {blob}: metadata unreadable: {e}") from None
     if not isinstance(stored, dict):
         raise ValueError(f"parameter file {blob}: metadata {meta} must be a JSON object, got {type(stored).__name__}")
     try:

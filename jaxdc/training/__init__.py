@@ -3,7 +3,6 @@
 * :mod:`~jaxdc.training.loop`: :class:`~jaxdc.training.loop.TrainingRun`, the loop of a run (evaluation rows,
   checkpoints, exact resume, NaN stop, several seeds and devices);
 * :mod:`~jaxdc.training.metrics`: the metrics CSV and the TensorBoard writer;
-* :mod:`~jaxdc.training.metadata`: the format of a run's and a parameter file's metadata, and its upgrade;
 * :mod:`~jaxdc.training.dcp`, :mod:`~jaxdc.training.dcg`: the DCP and DCG runs built from their settings;
 * :mod:`~jaxdc.training.ship`: the runs that make the shipped parameter files, and the DCP export.
 
