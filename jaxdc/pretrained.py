@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Callable
 from typing import Any
 
 import jax
@@ -38,8 +39,10 @@ ASSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "assets")
 class Learned:
     """A trained network with its parameters and the metadata of how it was trained (whatever the source).
 
-    ``jaxdc.dcp.learned.Learned`` and ``jaxdc.dcg.learned.Learned`` subclass it
-    with the problem's setting (``setting()``) and environment.
+    The interface both problems share: ``jaxdc.dcp.learned.Learned`` and
+    ``jaxdc.dcg.learned.Learned`` subclass it with the problem's reading of the
+    metadata, and each problem's module has ``load(path, ...)`` and
+    ``shipped(...)`` returning one.
     """
 
     net_name: str
@@ -47,6 +50,22 @@ class Learned:
     params: Any
     metadata: dict
     source: str
+
+    def setting(self) -> dict[str, Any]:
+        """The environment setting of training (the problem's keys, defaults where not recorded)."""
+        raise NotImplementedError
+
+    def env_options(self) -> dict[str, Any]:
+        """The environment constructor's options of training that change the dynamics (only those recorded)."""
+        raise NotImplementedError
+
+    def policy(self, *args: Any, greedy: bool = False, **kwargs: Any) -> Callable:
+        """``policy(key, obs, state) -> action`` of the network for :func:`jaxdc.core.rollout.run_episodes`."""
+        raise NotImplementedError
+
+    def describe(self) -> str:
+        """One line: network, training setting and source."""
+        raise NotImplementedError
 
 
 def _paths(path) -> tuple[str, str]:

@@ -18,16 +18,19 @@ names the file and the problem.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
+from typing import Any
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from jaxdc import pretrained
 from jaxdc.core.tree_check import check_like
+from jaxdc.nets.registry import DCP_NETS, NSTEP_Q, build
 
-#: Networks that have a learned DCP policy (``enn``, ``linear``, ``cnn``: A2C; ``eqn``: n-step Q).
-NETS = ("enn", "linear", "cnn", "eqn")
+#: Networks that have a learned DCP policy (the registry :data:`jaxdc.nets.DCP_NETS`: ``enn``, ``linear``,
+#: ``cnn``: A2C; ``eqn``: n-step Q).
+NETS = tuple(DCP_NETS)
 #: The evaluation epsilon of EQN's epsilon-greedy policy (section 4.5.5).
 EQN_EPSILON = 0.05
 #: Settings of the environment a network was trained in, as stored in its metadata.
@@ -50,14 +53,30 @@ class Learned(pretrained.Learned):
         """The ``DCP(...)`` options of training that change the dynamics (defaults where not recorded)."""
         return {k: self.metadata["env"][k] for k in ENV_OPTION_KEYS if k in self.metadata.get("env", {})}
 
+    def policy(self, heuristics: Any = None, greedy: bool = False, epsilon: float = EQN_EPSILON) -> Callable:
+        """``policy(key, obs, state)`` of the network for :func:`jaxdc.core.rollout.run_episodes`.
 
-def make_network(net_name: str):
+        Actor-critics sample from ``pi`` (section 4.5: "the output of ENN is used
+        as a stochastic policy"), or take its argmax if ``greedy``. EQN is
+        epsilon-greedy with ``epsilon`` (section 4.5.5: 0.05; 0 if ``greedy``).
+        """
+        from jaxdc.agents import a2c, nstep_q
+
+        if DCP_NETS[self.net_name].algorithm == NSTEP_Q:
+            return nstep_q.make_q_policy(self.net, self.params, heuristics, epsilon=0.0 if greedy else epsilon)
+        return a2c.make_policy(self.net, self.params, heuristics, greedy=greedy)
+
+    def describe(self) -> str:
+        """One line: network, training setting and source."""
+        s = self.setting()
+        return (f"{self.net_name} trained on {s['grid_size']}x{s['grid_size']}, risk {s['risk']}, "
+                f"total reward {s['total_reward']}, energy {float(s['energy'][0]):g}/{float(s['energy'][1]):g}, "
+                f"{_trained_for(self.metadata)}, seed {self.metadata.get('seed', '?')} ({self.source})")
+
+
+def make_network(net_name: str) -> Any:
     """The flax module of ``net_name`` (ENN Fig. 4.3, EQN Fig. 4.4, linear learner Table 4.9, CNN)."""
-    from jaxdc.nets import EQN, make_net
-
-    if net_name not in NETS:
-        raise ValueError(f"net must be one of {NETS}, got {net_name!r}")
-    return EQN() if net_name == "eqn" else make_net(net_name)
+    return build("dcp", net_name)
 
 
 def init_params(net, grid_size: int, key=None):
@@ -111,7 +130,8 @@ def _train_state(name: str, meta: dict, source: str):
     s = {k: meta.get(k, DEFAULT_SETTING[k]) for k in SETTING_KEYS}
     env = DCP(grid_size=s["grid_size"], total_reward=s["total_reward"])
     env_params = env.make_params(s["risk"], tuple(s["energy"]), s["max_steps"])
-    cls = nstep_q.QConfig if name == "eqn" else a2c.A2CConfig
+    q_learning = DCP_NETS[name].algorithm == NSTEP_Q
+    cls = nstep_q.QConfig if q_learning else a2c.A2CConfig
     fields = {f.name for f in dataclasses.fields(cls)}
     algo = {k: v for k, v in meta.get("algorithm", {}).items() if k in fields}
     try:
@@ -119,7 +139,7 @@ def _train_state(name: str, meta: dict, source: str):
     except (TypeError, ValueError) as e:
         raise ValueError(f"{source}: the metadata has an unusable algorithm configuration: {e}") from None
     heur = navigators.batched_heuristics(env_params, safest_paths(env_params.risk))
-    trainer = (nstep_q if name == "eqn" else a2c).make_train(config, env, env_params, make_network(name), heur)
+    trainer = (nstep_q if q_learning else a2c).make_train(config, env, env_params, make_network(name), heur)
     return trainer.init(jax.random.PRNGKey(0))
 
 
@@ -151,31 +171,7 @@ def shipped(net: str, risk: str = "high", energy=(8.0, 16.0), grid_size: int | N
     return load(path, net=net, grid_size=grid_size)
 
 
-def make_policy(learned: Learned, heuristics=None, greedy: bool = False, epsilon: float = EQN_EPSILON):
-    """``policy(key, obs, state)`` of a learned network for :func:`jaxdc.core.rollout.run_episodes`.
-
-    Actor-critics sample from ``pi`` (section 4.5: "the output of ENN is used
-    as a stochastic policy"), or take its argmax if ``greedy``. EQN is
-    epsilon-greedy with ``epsilon`` (section 4.5.5: 0.05; 0 if ``greedy``).
-    """
-    from jaxdc.agents import a2c, nstep_q
-
-    if learned.net_name == "eqn":
-        return nstep_q.make_q_policy(learned.net, learned.params, heuristics, epsilon=0.0 if greedy else epsilon)
-    return a2c.make_policy(learned.net, learned.params, heuristics, greedy=greedy)
-
-
 def _trained_for(meta: dict) -> str:
     if "steps" in meta:
         return f"{meta['steps']} steps"
     return f"{meta['updates']} updates" if "updates" in meta else "? steps"
-
-
-def describe(learned: Learned) -> str:
-    """One line: network, training setting and source."""
-    s = learned.setting()
-    return (f"{learned.net_name} trained on {s['grid_size']}x{s['grid_size']}, risk {s['risk']}, "
-            f"total reward {s['total_reward']}, energy {float(s['energy'][0]):g}/{float(s['energy'][1]):g}, "
-            f"{_trained_for(learned.metadata)}, seed {learned.metadata.get('seed', '?')} "
-            f"({learned.source})")
-
