@@ -9,6 +9,8 @@ whose they are (``DCPParams``, ``DCGState``, ...).
 
 from __future__ import annotations
 
+from typing import Any
+
 from jaxdc._version import __version__
 from jaxdc.dcg.env import DCG
 from jaxdc.dcg.env import EnvParams as DCGParams
@@ -53,7 +55,7 @@ def registered_envs() -> tuple[str, ...]:
     return tuple(_PARAM_KEYS)
 
 
-def make(id: str, **kwargs):
+def make(id: str, **kwargs: Any) -> tuple[Any, Any]:
     """``(env, params)`` of the functional environment ``id`` (one of :func:`registered_envs`), gymnax style::
 
         env, params = jaxdc.make("DCP-v0", risk="low", grid_size=6)

@@ -50,7 +50,7 @@ COUNTS = ("grid_size", "total_reward", "max_steps", "steps", "updates", "min_tot
 NONNEGATIVE = ("seed", "history")
 
 
-def _config_class(net: str) -> type:
+def _config_class(net: str | None) -> type:
     """``QConfig`` for a network trained by n-step Q-learning (the registry's ``"nstep_q"``), else ``A2CConfig``."""
     from jaxdc.agents.a2c import A2CConfig
     from jaxdc.agents.nstep_q import QConfig
@@ -59,7 +59,7 @@ def _config_class(net: str) -> type:
     return QConfig if net in nets and nets[net].algorithm == NSTEP_Q else A2CConfig
 
 
-def algorithm_fields(net: str) -> dict:
+def algorithm_fields(net: str | None) -> dict:
     """``{field: default}`` of the config that trains ``net`` (``QConfig`` for EQN, else ``A2CConfig``)."""
     cls = _config_class(net)
     return {f.name: f.default for f in dataclasses.fields(cls)}

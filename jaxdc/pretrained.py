@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Collection
+from typing import Any, Union
 
 import jax
 import jax.numpy as jnp
@@ -31,6 +31,11 @@ from flax import serialization
 
 from jaxdc.io import atomic_write_set, json_text, read_json
 from jaxdc.metadata import FORMAT, check_values, upgrade
+
+#: A file or folder path.
+PathLike = Union[str, "os.PathLike[str]"]
+#: ``restore_target(net_name, metadata, source)``: an initial training state shaped like a run's checkpoint.
+RestoreTarget = Callable[[str, dict, str], Any]
 
 ASSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "assets")
 
@@ -68,13 +73,13 @@ class Learned:
         raise NotImplementedError
 
 
-def _paths(path) -> tuple[str, str]:
+def _paths(path: PathLike) -> tuple[str, str]:
     path = os.fspath(path)
     stem = path[: -len(".msgpack")] if path.endswith(".msgpack") else path
     return stem + ".msgpack", stem + ".json"
 
 
-def non_finite_leaf(params) -> str | None:
+def non_finite_leaf(params: Any) -> str | None:
     """The ``/``-joined path of the first parameter array holding a NaN or an infinity, or ``None``
     (traced leaves, inside a jit, are skipped: they are checked where their values are known)."""
     flat = jax.tree_util.tree_flatten_with_path(params)[0]
@@ -87,7 +92,7 @@ def non_finite_leaf(params) -> str | None:
     return None
 
 
-def save(path, params, metadata: dict) -> str:
+def save(path: PathLike, params: Any, metadata: dict) -> str:
     """Write ``params`` and ``metadata`` (JSON-able; must name ``net`` and ``problem``) atomically.
 
     Returns the ``.msgpack`` path. Both files are serialised first (the
@@ -119,7 +124,7 @@ def check_metadata_values(meta: dict, where: str) -> dict:
     return check_values(meta, where)
 
 
-def read_metadata(path) -> dict:
+def read_metadata(path: PathLike) -> dict:
     """The metadata sidecar of the parameter file ``path``, in the current format.
 
     The sidecar must be strict JSON (no NaN or Infinity) and its settings sensible
@@ -140,7 +145,7 @@ def read_metadata(path) -> dict:
         raise ValueError(f"parameter file {blob}: {e}" if blob not in str(e) else str(e)) from None
 
 
-def load(path, **expected) -> tuple[dict, dict]:
+def load(path: PathLike, **expected: Any) -> tuple[dict, dict]:
     """``(params, metadata)`` of the parameter file ``path``.
 
     Every keyword of ``expected`` (e.g. ``net="enn", problem="dcp"``) must equal
@@ -181,7 +186,7 @@ def shipped_names(problem: str) -> list[str]:
     return sorted(f[: -len(".msgpack")] for f in os.listdir(folder) if f.endswith(".msgpack"))
 
 
-def resolve(path, problem: str) -> str:
+def resolve(path: PathLike, problem: str) -> str:
     """``path`` itself if it exists (a parameter file, with or without ``.msgpack``, or a run folder); else, for a
     bare name such as ``enn`` or ``omn_conn_strong``, the shipped file ``jaxdc/assets/<problem>/<name>.msgpack``.
 
@@ -201,7 +206,7 @@ def resolve(path, problem: str) -> str:
     return path
 
 
-def check_finite(params, source: str) -> None:
+def check_finite(params: Any, source: str) -> None:
     """``ValueError`` naming ``source`` and the first parameter that holds NaN or infinity (a damaged file or a
     diverged run); every loader of trained parameters calls it."""
     bad = non_finite_leaf(params)
@@ -210,9 +215,9 @@ def check_finite(params, source: str) -> None:
                          "was saved from a diverged run")
 
 
-def _naming_source(restore_target, source: str):
+def _naming_source(restore_target: RestoreTarget, source: str) -> RestoreTarget:
     """``restore_target`` whose ``ValueError``/``TypeError`` (a bad setting in the metadata) names ``source``."""
-    def target(*args):
+    def target(*args: Any) -> Any:
         try:
             return restore_target(*args)
         except (ValueError, TypeError) as e:
@@ -221,8 +226,9 @@ def _naming_source(restore_target, source: str):
     return target
 
 
-def load_trained(path, problem: str, nets, restore_target, net: str | None = None, check_meta=None,
-                 run_seed: int | None = None):
+def load_trained(path: PathLike, problem: str, nets: Collection[str], restore_target: RestoreTarget,
+                 net: str | None = None, check_meta: Callable[[dict, str], None] | None = None,
+                 run_seed: int | None = None) -> tuple[str, Any, dict, str]:
     """``(net_name, params, metadata, source)`` of a trained network, from a file or a training run.
 
     ``path`` is a parameter file of :func:`save` (``.msgpack``, suffix
@@ -262,7 +268,7 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         if meta.get("problem") != problem:
             raise ValueError(f"{source} is for problem {meta.get('problem')!r}, not {problem!r}")
     name = meta.get("net")
-    if name not in nets:
+    if not isinstance(name, str) or name not in nets:
         raise ValueError(f"{source}: metadata names net {name!r}, not one of the {problem} networks {tuple(nets)}")
     if net is not None and name != net:
         raise ValueError(f"{source} holds a {name!r} network, not {net!r}")

@@ -218,24 +218,24 @@ def a2c_settings(args: argparse.Namespace, fields: Iterable[str] = A2C_FLAGS) ->
     return {f: getattr(args, dest(f)) for f in fields}
 
 
-def learner_options_set(args) -> list[str]:
+def learner_options_set(args: argparse.Namespace) -> list[str]:
     """The flags of the learner options beside Algorithm 10 that ``args`` moves off their faithful default."""
     return [flag(f) for f, default in LEARNER_OPTIONS.items() if getattr(args, dest(f)) != default]
 
 
-def run_control(args, out: str) -> RunControl:
+def run_control(args: argparse.Namespace, out: str) -> RunControl:
     """The :class:`~jaxdc.training.loop.RunControl` of the parsed run-control flags, into run folder ``out``."""
     return RunControl(out=out, seeds=tuple(args.seeds or [args.seed]), devices=args.devices, resume=args.resume,
                       eval_every=args.eval_every, keep=args.keep, layout=args.layout, progress=not args.no_progress,
                       tensorboard=bool(getattr(args, "tensorboard", False)))
 
 
-def seed_tag(args) -> str:
+def seed_tag(args: argparse.Namespace) -> str:
     """The seeds of a run as they appear in its default folder name (``0``, ``0-1-2``)."""
     return "-".join(map(str, args.seeds or [args.seed]))
 
 
-def training_energy(name: str):
+def training_energy(name: str) -> Callable[[str], float]:
     """argparse type: an energy budget a training run can use, a finite number in ``(0, 2**24]``.
 
     An unlimited budget (``inf``) is refused: the trained network would read a constant energy plane and
@@ -243,7 +243,7 @@ def training_energy(name: str):
     """
     finite = positive_float(name, high=MAX_FINITE_ENERGY)
 
-    def parse(text):
+    def parse(text: str) -> float:
         try:
             if float(text) == float("inf"):
                 raise argparse.ArgumentTypeError(
@@ -263,6 +263,6 @@ def check_outputs(out: str, tensorboard: bool = False) -> None:
         check_output_folder(os.path.join(out, "tb"), "--tensorboard folder")
 
 
-def fmt(x, spec: str = ".3f") -> str:
+def fmt(x: float | None, spec: str = ".3f") -> str:
     """``x`` formatted with ``spec``, or ``n/a`` for an undefined statistic (``None``)."""
     return "n/a" if x is None else format(x, spec)

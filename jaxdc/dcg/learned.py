@@ -47,7 +47,7 @@ def make_network(name: str, history: int = 10) -> Any:
     return build("dcg", name, history=history)
 
 
-def init_params(net, grid_size: int, history: int, key=None):
+def init_params(net: Any, grid_size: int, history: int, key: jax.Array | None = None) -> Any:
     """Fresh parameters of ``net`` for observations ``[1, N, N, 2 + k]`` (``k = 0``: no history, VNN)."""
     obs = jnp.zeros((1, grid_size, grid_size, 2 + history), jnp.float32)
     return net.init(key if key is not None else jax.random.PRNGKey(0), obs, jnp.zeros((1, 1, 9), jnp.float32))
@@ -137,14 +137,14 @@ def _check(name, net, params, meta, source):
                       "was it trained on another grid size or history length?")
 
 
-def load(path, net: str | None = None) -> Learned:
+def load(path: pretrained.PathLike, net: str | None = None) -> Learned:
     """Load a trained DCG network from a parameter file (``.msgpack``) or a ``train.dcg`` run folder.
 
     ``net``, when given, must be the stored network's name (else ``ValueError``;
     :func:`jaxdc.pretrained.load_trained`). Parameters holding NaN or infinity are refused
     (:func:`jaxdc.pretrained.check_finite`).
     """
-    def target(name, meta, source):
+    def target(name: str, meta: dict, source: str) -> Any:
         return train_state_template(make_network(name, meta.get("history", DEFAULT_SETTING["history"])), meta, source)
 
     name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net)
@@ -153,7 +153,7 @@ def load(path, net: str | None = None) -> Learned:
     return Learned(name, module, params, meta, source)
 
 
-def train_state_template(module, meta: dict, source: str):
+def train_state_template(module: Any, meta: dict, source: str) -> Any:
     """An initial A2C training state with the structure of a ``train.dcg`` checkpoint of ``meta`` (the restore target).
 
     Built like ``train.dcg`` builds it: the game of ``meta`` and ``A2CConfig(**meta["algorithm"])``.

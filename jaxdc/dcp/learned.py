@@ -79,14 +79,14 @@ def make_network(net_name: str) -> Any:
     return build("dcp", net_name)
 
 
-def init_params(net, grid_size: int, key=None):
+def init_params(net: Any, grid_size: int, key: jax.Array | None = None) -> Any:
     """Freshly initialised parameters of ``net`` for an ``grid_size x grid_size`` grid (shapes only matter)."""
     obs = jnp.zeros((1, grid_size, grid_size, 2), jnp.float32)
     heur = jnp.zeros((1, 10, 9), jnp.float32) if getattr(net, "uses_heuristics", True) else jnp.zeros((1, 1, 9))
     return net.init(key if key is not None else jax.random.PRNGKey(0), obs, heur)
 
 
-def check_params(net_name: str, net, params, grid_size: int, source: str):
+def check_params(net_name: str, net: Any, params: Any, grid_size: int, source: str) -> Any:
     """``params`` as float32 if it has exactly the structure and shapes of ``net`` on ``grid_size`` and every value
     is finite, else ``ValueError`` naming ``source``."""
     params = check_like(init_params(net, grid_size), params, source,
@@ -96,8 +96,8 @@ def check_params(net_name: str, net, params, grid_size: int, source: str):
     return params
 
 
-def _grid_checker(grid_size: int | None):
-    def check(meta: dict, source: str):
+def _grid_checker(grid_size: int | None) -> Callable[[dict, str], None]:
+    def check(meta: dict, source: str) -> None:
         have = meta.get("grid_size", DEFAULT_SETTING["grid_size"])
         if grid_size is not None and have != grid_size:
             raise ValueError(f"{source} was trained on a {have}x{have} grid; it cannot play a "
@@ -105,7 +105,7 @@ def _grid_checker(grid_size: int | None):
     return check
 
 
-def load(path, net: str | None = None, grid_size: int | None = None, run_seed: int | None = None) -> Learned:
+def load(path: pretrained.PathLike, net: str | None = None, grid_size: int | None = None, run_seed: int | None = None) -> Learned:
     """Load a learned policy from a parameter file (``.msgpack``) or a ``train.dcp`` run folder.
 
     ``net`` and ``grid_size``, when given, must match the stored metadata
@@ -120,7 +120,7 @@ def load(path, net: str | None = None, grid_size: int | None = None, run_seed: i
     return Learned(name, module, params, meta, source)
 
 
-def _train_state(name: str, meta: dict, source: str):
+def _train_state(name: str, meta: dict, source: str) -> Any:
     """An initial training state with the structure of a ``train.dcp`` checkpoint of ``meta`` (restore target)."""
     from jaxdc.agents import a2c, nstep_q
     from jaxdc.core.paths import safest_paths
@@ -143,7 +143,7 @@ def _train_state(name: str, meta: dict, source: str):
     return trainer.init(jax.random.PRNGKey(0))
 
 
-def shipped_name(net: str, risk: str = "high", energy=(8.0, 16.0)) -> str:
+def shipped_name(net: str, risk: str = "high", energy: tuple[float, float] = (8.0, 16.0)) -> str:
     """Name of the shipped parameter file of ``net`` trained with ``risk`` and ``energy`` (section 4.5).
 
     The ENN of Table 4.3 (high risk, energy 8/16) is ``"enn"``; the ENN of
@@ -160,7 +160,8 @@ def shipped_name(net: str, risk: str = "high", energy=(8.0, 16.0)) -> str:
     return name
 
 
-def shipped(net: str, risk: str = "high", energy=(8.0, 16.0), grid_size: int | None = None) -> Learned:
+def shipped(net: str, risk: str = "high", energy: tuple[float, float] = (8.0, 16.0),
+            grid_size: int | None = None) -> Learned:
     """The shipped learned policy of ``net`` trained in the given risk and energy setting (see :func:`shipped_name`)."""
     name = shipped_name(net, risk, energy)
     try:

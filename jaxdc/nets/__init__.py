@@ -19,6 +19,8 @@ logits ``[B, 9]``.
 
 from __future__ import annotations
 
+import flax.linen as nn
+
 from jaxdc.nets.body import ConvBody
 from jaxdc.nets.cnn import CNN
 from jaxdc.nets.emnn import EMNN
@@ -33,14 +35,14 @@ from jaxdc.nets.vnn import IMNN, VNN
 ACTOR_CRITICS = {name: e.cls for name, e in DCP_NETS.items() if e.algorithm == A2C}
 
 
-def make_net(name: str, num_heuristics: int = 10, num_actions: int = 9):
+def make_net(name: str, num_heuristics: int = 10, num_actions: int = 9) -> nn.Module:
     """The DCP actor-critic network called ``name`` (one of :data:`ACTOR_CRITICS`)."""
     if name not in ACTOR_CRITICS:
         raise ValueError(f"net must be one of {tuple(ACTOR_CRITICS)}, got {name!r}")
     return build("dcp", name, num_heuristics=num_heuristics, num_actions=num_actions)
 
 
-def make_dcg_net(name: str, history: int = 10, num_actions: int = 9):
+def make_dcg_net(name: str, history: int = 10, num_actions: int = 9) -> nn.Module:
     """The DCG network called ``name`` (one of :data:`DCG_NETS`, section 5.4) for a history of ``k = history``.
 
     VNN reads only the current state and ignores ``history``; the others need ``history >= 1``

@@ -104,7 +104,7 @@ class RunSpec:
     postfix_key: str = "eval_reward"
 
 
-def spread(trainer: Trainer, control: RunControl, num_envs: int):
+def spread(trainer: Trainer, control: RunControl, num_envs: int) -> tuple[Trainer, Any]:
     """``(trainer, mesh)``: ``trainer`` split over ``control.devices`` (default all) and vmapped over its seeds."""
     available = len(jax.devices())
     if control.devices is not None and control.devices > available:
@@ -122,7 +122,7 @@ def spread(trainer: Trainer, control: RunControl, num_envs: int):
 BATCH_COPIES = 4
 
 
-def check_batch_fits(config: RunConfig, env, env_params, seeds: int = 1) -> None:
+def check_batch_fits(config: RunConfig, env: Any, env_params: Any, seeds: int = 1) -> None:
     """``MemoryError`` before any compilation if a rollout batch (``seeds * num_envs * t_max`` observations,
     :data:`BATCH_COPIES` copies) cannot fit in the device's memory; the message says what to lower."""
     obs = jax.eval_shape(env.reset_env, jax.random.PRNGKey(0), env_params)[0]
@@ -131,7 +131,7 @@ def check_batch_fits(config: RunConfig, env, env_params, seeds: int = 1) -> None
                               "steps", "num_envs or t_max (or the number of seeds)")
 
 
-def check_evaluation_fits(run, evaluate) -> None:
+def check_evaluation_fits(run: TrainingRun, evaluate: Callable) -> None:
     """Trace (without running) ``evaluate(params, key)`` of ``run``, so that the memory check of its episodes
     (:func:`jaxdc.core.rollout.run_episodes`) refuses a too large ``eval_episodes`` before training starts."""
     params = jax.eval_shape(run.trainer.init, run.init_key()).params
@@ -144,17 +144,17 @@ class TrainingRun:
     Each seed gets its own CSV (and TensorBoard folder), one checkpoint holds all seeds.
     """
 
-    def __init__(self, control: RunControl, spec: RunSpec):
+    def __init__(self, control: RunControl, spec: RunSpec) -> None:
         if control.layout not in LAYOUTS:
             raise ValueError(f"layout must be one of {LAYOUTS}, got {control.layout!r}")
         if control.tensorboard:
             tensorboard_writer(None)  # fail before any work if tensorboardX is missing
         self.control, self.spec = control, spec
-        self.final_state = None
+        self.final_state: Any = None
 
     # the pieces, by name
     @property
-    def config(self):
+    def config(self) -> Any:
         return self.spec.config
 
     @property
@@ -181,22 +181,22 @@ class TrainingRun:
     def multi(self) -> bool:
         return self.control.multi
 
-    def _keys(self, offset: int = 0):
+    def _keys(self, offset: int = 0) -> jax.Array:
         keys = [jax.random.PRNGKey(s + offset) for s in self.control.seeds]
         return jax.numpy.stack(keys) if self.multi else keys[0]
 
-    def init_key(self):
+    def init_key(self) -> jax.Array:
         """The key of ``trainer.init`` (stacked per seed when several)."""
         return self._keys()
 
-    def eval_key(self, update: int):
+    def eval_key(self, update: int) -> jax.Array:
         """The evaluation key at ``update`` (stacked per seed; each seed's equals its single run's)."""
         base = self._keys(EVAL_SEED_OFFSET)
         if self.multi:
             return jax.vmap(jax.random.fold_in, in_axes=(0, None))(base, update)
         return jax.random.fold_in(base, update)
 
-    def place(self, state):
+    def place(self, state: Any) -> Any:
         """Put a restored state on the devices (as :func:`spread` placed the trainer's)."""
         mesh = self.spec.mesh
         return state if mesh is None else parallel.place(state, mesh, seed_axis=self.multi)
@@ -209,7 +209,7 @@ class TrainingRun:
                 for s in self.seeds]
 
     # -- state --------------------------------------------------------------------------
-    def initial_state(self):
+    def initial_state(self) -> Any:
         """A fresh state (writes ``config.json``), or with ``resume`` the latest checkpoint's."""
         check_output_folder(self.out, "output folder")
         os.makedirs(self.out, exist_ok=True)
@@ -295,7 +295,7 @@ class TrainingRun:
             w.close()
         return dict(last, status="done")
 
-    def _updates(self, state, n: int, bar):
+    def _updates(self, state: Any, n: int, bar: Any) -> tuple[Any, Any]:
         """``n`` updates; metrics ``[n]`` (``[seeds, n]`` with several seeds)."""
         if self.control.layout == "scan":
             state, metrics = self.trainer.run(state, n)

@@ -93,7 +93,7 @@ BEYOND = {
 }
 #: The PPO-style options of ``train.dcp`` (docs/learning.md, "The PPO-style option at 1M steps"), the same
 #: options for every table: the best learners at the thesis' 1M steps.
-PPO = {"num_envs": 32, "t_max": 32, "lr": 3e-4, "clip_eps": 0.2, "epochs": 4, "minibatches": 4, "gae_lambda": 0.95,
+PPO: dict[str, Any] = {"num_envs": 32, "t_max": 32, "lr": 3e-4, "clip_eps": 0.2, "epochs": 4, "minibatches": 4, "gae_lambda": 0.95,
        "normalize_advantages": True, "reset_slots": 4, "eval_every": 1_000_000, "eval_episodes": 4000}
 BEYOND.update({  # the setting of the faithful ENN of the same tables, then the PPO options
     "enn_ppo": _dcp("4.3, 4.6 (beyond the thesis: the PPO-style option)", "enn", **PPO),
@@ -104,7 +104,7 @@ BEYOND.update({  # the setting of the faithful ENN of the same tables, then the 
 })
 #: The strong DCG collectors (docs/dcg.md, "Strong collectors"; beyond the thesis): the PPO-style options at
 #: lr 1e-3, 3M steps (``NET_strong``) and the same recipe at the thesis' 1M steps (``NET_strong_1m``, Fig. 5.6).
-DCG_STRONG_RECIPE = {**PPO, "lr": 1e-3, "eval_episodes": 2000}
+DCG_STRONG_RECIPE: dict[str, Any] = {**PPO, "lr": 1e-3, "eval_episodes": 2000}
 #: The strong DCG collectors: ``NET_strong`` (3M steps) and ``NET_strong_1m`` (1M) for each network, then
 #: ``omn_conn_strong_areas``.
 DCG_STRONG = {f"{net}_strong{tag}": Preset("dcg", figures, net, total_steps=steps, **DCG_STRONG_RECIPE)
