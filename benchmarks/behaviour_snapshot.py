@@ -71,7 +71,7 @@ from jaxdc.dcp import learned
 for name in sys.argv[2:]:
     l = learned.load(f"{sys.argv[1]}/{name}")
     print(json.dumps({"run": name, "net": l.net_name, "params_sha256": digest(l.params), "setting": l.setting(),
-                      "env_options": l.env_options(), "describe": learned.describe(l).replace(sys.argv[1], "<TMP>")}))
+                      "env_options": l.env_options(), "describe": l.describe().replace(sys.argv[1], "<TMP>")}))
 '''
 DCG_PARAMS = HASH_SNIPPET + r'''
 from jaxdc import pretrained

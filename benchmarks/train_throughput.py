@@ -89,12 +89,13 @@ TARGET_DCG_1M_S = 300.0
 
 
 def ppo_options() -> dict:
-    """The :class:`~jaxdc.agents.a2c.A2CConfig` fields of the PPO-style option, as ``jaxdc.training.ship.PPO``
+    """The :class:`~jaxdc.agents.a2c.A2CConfig` fields of the PPO-style option, as ``jaxdc.training.presets.PPO``
     passes them to ``train.dcp`` (docs/learning.md); the ``jaxdc enn ppo`` rows time them (``num_envs`` from ``--ppo-envs``)."""
     from jaxdc.cli.train_dcp import build_parser
-    from jaxdc.training.ship import PPO
+    from jaxdc.training.fields import flags
+    from jaxdc.training.presets import PPO
 
-    a = build_parser().parse_args(PPO)
+    a = build_parser().parse_args(flags(PPO.items()))
     assert a.t_max == T_MAX, (a.t_max, T_MAX)
     return {"lr": a.lr, "clip_eps": a.clip_eps, "epochs": a.epochs, "minibatches": a.minibatches,
             "gae_lambda": a.gae_lambda, "normalize_advantages": a.normalize_advantages, "reset_slots": a.reset_slots}

@@ -2,15 +2,25 @@
 
 Importing :mod:`jaxdc` registers ``"jaxdc/DCP-v0"`` and ``"jaxdc/DCG-v0"`` with gymnasium
 (``gymnasium.make`` / ``gymnasium.make_vec``; the adapters live in
-:mod:`jaxdc.wrappers.gymnasium` and are imported only when an env is made).
+:mod:`jaxdc.wrappers.gymnasium` and are imported only when an env is made). The two
+environments and their parameter and state records are exported under names that say
+whose they are (``DCPParams``, ``DCGState``, ...).
 """
 
 from __future__ import annotations
 
-from jaxdc.dcp.env import DCP, EnvParams, EnvState
+from typing import Any
 
-__version__ = "0.1.0"
-__all__ = ["DCP", "EnvParams", "EnvState", "make", "registered_envs", "__version__"]
+from jaxdc._version import __version__
+from jaxdc.dcg.env import DCG
+from jaxdc.dcg.env import EnvParams as DCGParams
+from jaxdc.dcg.env import EnvState as DCGState
+from jaxdc.dcp.env import DCP
+from jaxdc.dcp.env import EnvParams as DCPParams
+from jaxdc.dcp.env import EnvState as DCPState
+
+__all__ = ["DCG", "DCGParams", "DCGState", "DCP", "DCPParams", "DCPState", "make", "registered_envs",
+           "__version__"]
 
 _GYM_ID = "jaxdc/DCP-v0"
 _DCG_GYM_ID = "jaxdc/DCG-v0"
@@ -45,7 +55,7 @@ def registered_envs() -> tuple[str, ...]:
     return tuple(_PARAM_KEYS)
 
 
-def make(id: str, **kwargs):
+def make(id: str, **kwargs: Any) -> tuple[Any, Any]:
     """``(env, params)`` of the functional environment ``id`` (one of :func:`registered_envs`), gymnax style::
 
         env, params = jaxdc.make("DCP-v0", risk="low", grid_size=6)
@@ -59,10 +69,5 @@ def make(id: str, **kwargs):
     if name not in _PARAM_KEYS:
         raise ValueError(f"unknown environment id {id!r}; available: {sorted(_PARAM_KEYS)}")
     params_kwargs = {k: kwargs.pop(k) for k in _PARAM_KEYS[name] if k in kwargs}
-    if name == "DCP-v0":
-        env = DCP(**kwargs)
-    else:
-        from jaxdc.dcg.env import DCG
-
-        env = DCG(**kwargs)
+    env = DCP(**kwargs) if name == "DCP-v0" else DCG(**kwargs)
     return env, env.make_params(**params_kwargs)

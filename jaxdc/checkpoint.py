@@ -19,7 +19,8 @@ import logging
 import os
 import sys
 import time
-from typing import Any
+from collections.abc import Callable
+from typing import Any, Union
 
 import jax
 import numpy as np
@@ -28,13 +29,16 @@ from flax import serialization
 
 from jaxdc.core.tree_check import mismatch
 
+#: A folder path.
+PathLike = Union[str, "os.PathLike[str]"]
 
-def _manager(directory, keep: int | None = None) -> ocp.CheckpointManager:
+
+def _manager(directory: PathLike, keep: int | None = None) -> ocp.CheckpointManager:
     options = ocp.CheckpointManagerOptions(max_to_keep=keep, enable_async_checkpointing=False, create=True)
     return ocp.CheckpointManager(os.path.abspath(os.fspath(directory)), options=options)
 
 
-def save(directory, step: int, state, metadata: dict, keep: int = 3) -> None:
+def save(directory: PathLike, step: int, state: Any, metadata: dict, keep: int = 3) -> None:
     """Write ``state`` (a pytree) and ``metadata`` (JSON-able) as checkpoint ``step``; keep the last ``keep``."""
     tree = serialization.to_state_dict(jax.device_get(state))
     with _manager(directory, keep) as mngr:
@@ -43,7 +47,7 @@ def save(directory, step: int, state, metadata: dict, keep: int = 3) -> None:
         mngr.wait_until_finished()
 
 
-def steps(directory) -> list[int]:
+def steps(directory: PathLike) -> list[int]:
     """The checkpoint steps in ``directory`` (empty if there is none or no folder)."""
     if not os.path.isdir(os.fspath(directory)):
         return []
@@ -63,12 +67,12 @@ def _absl_quiet():
         absl.setLevel(level)
 
 
-def latest_step(directory) -> int | None:
+def latest_step(directory: PathLike) -> int | None:
     s = steps(directory)
     return s[-1] if s else None
 
 
-def read_metadata(directory, step: int | None = None) -> dict:
+def read_metadata(directory: PathLike, step: int | None = None) -> dict:
     """The metadata of checkpoint ``step`` (default: the latest)."""
     step = _pick(directory, step)
     try:
@@ -79,12 +83,13 @@ def read_metadata(directory, step: int | None = None) -> dict:
             from None
 
 
-def restore(directory, target, expected: dict | None = None, step: int | None = None, upgrade=None):
+def restore(directory: PathLike, target: Any, expected: dict | None = None, step: int | None = None,
+            upgrade: Callable[[dict], dict] | None = None) -> tuple[Any, dict]:
     """Restore checkpoint ``step`` (default: latest) into the structure of ``target``: ``(state, metadata)``.
 
     ``expected`` holds metadata entries that must match exactly (e.g. the
     network name and grid size); every array must have ``target``'s shape
-    and dtype. ``upgrade`` (e.g. :func:`jaxdc.training.metadata.upgrade`)
+    and dtype. ``upgrade`` (e.g. :func:`jaxdc.metadata.upgrade`)
     turns the stored metadata into the current format before it is compared
     and returned.
     """
@@ -117,14 +122,14 @@ _QUIET_S, _SETTLE_MAX_S = 0.3, 5.0
 class _Sink:
     """A stand-in ``sys.stderr`` that swallows and timestamps what is written to it."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.last = time.monotonic()
 
-    def write(self, text):
+    def write(self, text: str) -> int:
         self.last = time.monotonic()
         return len(text)
 
-    def flush(self):
+    def flush(self) -> None:
         pass
 
 

@@ -2,11 +2,11 @@
 
 One parameter file is a single ``.msgpack`` (flax serialization of the
 parameter pytree) with a JSON sidecar ``.json`` of metadata: its format
-(``"format"``, :mod:`jaxdc.training.metadata`), the network name
+(``"format"``, :mod:`jaxdc.metadata`), the network name
 (``"net"``) and the problem (``"problem"``: ``"dcp"`` or ``"dcg"``), plus
 whatever the writer needs to rebuild the environment and to say how the file
 was made (settings, steps, seed, the command that made it). Metadata of an
-older format is upgraded on load (:func:`jaxdc.training.metadata.upgrade`), so
+older format is upgraded on load (:func:`jaxdc.metadata.upgrade`), so
 files of every format read the same.
 
 The shipped files live in ``jaxdc/assets/<problem>/<name>.msgpack``;
@@ -20,19 +20,22 @@ subclass adds how to read the setting of training from the metadata.
 from __future__ import annotations
 
 import dataclasses
-import json
-import math
 import os
-from typing import Any
+from collections.abc import Callable, Collection
+from typing import Any, Union
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from flax import serialization
 
-from jaxdc.core.validate import is_int
-from jaxdc.io import atomic_write_set, json_text
-from jaxdc.training.metadata import FORMAT, upgrade
+from jaxdc.io import atomic_write_set, json_text, read_json
+from jaxdc.metadata import FORMAT, check_values, upgrade
+
+#: A file or folder path.
+PathLike = Union[str, "os.PathLike[str]"]
+#: ``restore_target(net_name, metadata, source)``: an initial training state shaped like a run's checkpoint.
+RestoreTarget = Callable[[str, dict, str], Any]
 
 ASSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "assets")
 
@@ -41,8 +44,10 @@ ASSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "assets")
 class Learned:
     """A trained network with its parameters and the metadata of how it was trained (whatever the source).
 
-    ``jaxdc.dcp.learned.Learned`` and ``jaxdc.dcg.learned.Learned`` subclass it
-    with the problem's setting (``setting()``) and environment.
+    The interface both problems share: ``jaxdc.dcp.learned.Learned`` and
+    ``jaxdc.dcg.learned.Learned`` subclass it with the problem's reading of the
+    metadata, and each problem's module has ``load(path, ...)`` and
+    ``shipped(...)`` returning one.
     """
 
     net_name: str
@@ -51,14 +56,30 @@ class Learned:
     metadata: dict
     source: str
 
+    def setting(self) -> dict[str, Any]:
+        """The environment setting of training (the problem's keys, defaults where not recorded)."""
+        raise NotImplementedError
 
-def _paths(path) -> tuple[str, str]:
+    def env_options(self) -> dict[str, Any]:
+        """The environment constructor's options of training that change the dynamics (only those recorded)."""
+        raise NotImplementedError
+
+    def policy(self, *args: Any, greedy: bool = False, **kwargs: Any) -> Callable:
+        """``policy(key, obs, state) -> action`` of the network for :func:`jaxdc.core.rollout.run_episodes`."""
+        raise NotImplementedError
+
+    def describe(self) -> str:
+        """One line: network, training setting and source."""
+        raise NotImplementedError
+
+
+def _paths(path: PathLike) -> tuple[str, str]:
     path = os.fspath(path)
     stem = path[: -len(".msgpack")] if path.endswith(".msgpack") else path
     return stem + ".msgpack", stem + ".json"
 
 
-def non_finite_leaf(params) -> str | None:
+def non_finite_leaf(params: Any) -> str | None:
     """The ``/``-joined path of the first parameter array holding a NaN or an infinity, or ``None``
     (traced leaves, inside a jit, are skipped: they are checked where their values are known)."""
     flat = jax.tree_util.tree_flatten_with_path(params)[0]
@@ -71,14 +92,14 @@ def non_finite_leaf(params) -> str | None:
     return None
 
 
-def save(path, params, metadata: dict) -> str:
+def save(path: PathLike, params: Any, metadata: dict) -> str:
     """Write ``params`` and ``metadata`` (JSON-able; must name ``net`` and ``problem``) atomically.
 
     Returns the ``.msgpack`` path. Both files are serialised first (the
     metadata as strict JSON, the parameters refused if any holds a NaN or an
     infinity), then land together (:func:`jaxdc.io.atomic_write_set`), so an
     error or an interruption leaves the old pair or the complete new one. The
-    sidecar records the current ``"format"`` (:data:`jaxdc.training.metadata.FORMAT`).
+    sidecar records the current ``"format"`` (:data:`jaxdc.metadata.FORMAT`).
     """
     for key in ("net", "problem"):
         if key not in metadata:
@@ -98,35 +119,12 @@ def save(path, params, metadata: dict) -> str:
     return blob
 
 
-def _refuse_constant(name):
-    raise ValueError(f"{name} is not JSON (JSON has no NaN or Infinity)")
-
-
-#: Metadata entries that are counts (ints >= 1, ``seed`` >= 0) and the energy (a number > 0), checked on read.
-_COUNTS = ("grid_size", "total_reward", "max_steps", "steps", "updates", "min_total_reward", "reward_area",
-           "min_reward_area")
-
-
 def check_metadata_values(meta: dict, where: str) -> dict:
-    """``meta`` if its settings have sensible types and ranges; else a ``ValueError`` naming ``where`` and the key."""
-    for key in _COUNTS:
-        v = meta.get(key)
-        if v is not None and (not is_int(v, numpy=False) or v < 1):
-            raise ValueError(f"{where}: metadata {key}={v!r} must be an int >= 1")
-    for key in ("seed", "history"):
-        v = meta.get(key)
-        if v is not None and (not is_int(v, numpy=False) or v < 0):
-            raise ValueError(f"{where}: metadata {key}={v!r} must be an int >= 0")
-    if "energy" in meta:
-        values = meta["energy"] if isinstance(meta["energy"], list) else [meta["energy"]]
-        for v in values:
-            ok = v == "inf" or (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0)
-            if not ok:
-                raise ValueError(f"{where}: metadata energy={meta['energy']!r} must hold numbers > 0 (or \"inf\")")
-    return meta
+    """``meta`` if its settings have sensible types and ranges (:func:`jaxdc.metadata.check_values`)."""
+    return check_values(meta, where)
 
 
-def read_metadata(path) -> dict:
+def read_metadata(path: PathLike) -> dict:
     """The metadata sidecar of the parameter file ``path``, in the current format.
 
     The sidecar must be strict JSON (no NaN or Infinity) and its settings sensible
@@ -136,10 +134,9 @@ def read_metadata(path) -> dict:
     if not os.path.isfile(meta):
         raise ValueError(f"parameter file {blob}: metadata {meta} not found (was it written by jaxdc.pretrained.save?)")
     try:
-        with open(meta) as f:
-            stored = json.load(f, parse_constant=_refuse_constant)
-    except (OSError, ValueError) as e:
-        raise ValueError(f"parameter file {blob}: metadata {meta} unreadable: {e}") from None
+        stored = read_json(meta)
+    except ValueError as e:
+        raise ValueError(f"parameter file {blob}: metadata unreadable: {e}") from None
     if not isinstance(stored, dict):
         raise ValueError(f"parameter file {blob}: metadata {meta} must be a JSON object, got {type(stored).__name__}")
     try:
@@ -148,7 +145,7 @@ def read_metadata(path) -> dict:
         raise ValueError(f"parameter file {blob}: {e}" if blob not in str(e) else str(e)) from None
 
 
-def load(path, **expected) -> tuple[dict, dict]:
+def load(path: PathLike, **expected: Any) -> tuple[dict, dict]:
     """``(params, metadata)`` of the parameter file ``path``.
 
     Every keyword of ``expected`` (e.g. ``net="enn", problem="dcp"``) must equal
@@ -189,7 +186,7 @@ def shipped_names(problem: str) -> list[str]:
     return sorted(f[: -len(".msgpack")] for f in os.listdir(folder) if f.endswith(".msgpack"))
 
 
-def resolve(path, problem: str) -> str:
+def resolve(path: PathLike, problem: str) -> str:
     """``path`` itself if it exists (a parameter file, with or without ``.msgpack``, or a run folder); else, for a
     bare name such as ``enn`` or ``omn_conn_strong``, the shipped file ``jaxdc/assets/<problem>/<name>.msgpack``.
 
@@ -209,7 +206,7 @@ def resolve(path, problem: str) -> str:
     return path
 
 
-def check_finite(params, source: str) -> None:
+def check_finite(params: Any, source: str) -> None:
     """``ValueError`` naming ``source`` and the first parameter that holds NaN or infinity (a damaged file or a
     diverged run); every loader of trained parameters calls it."""
     bad = non_finite_leaf(params)
@@ -218,9 +215,9 @@ def check_finite(params, source: str) -> None:
                          "was saved from a diverged run")
 
 
-def _naming_source(restore_target, source: str):
+def _naming_source(restore_target: RestoreTarget, source: str) -> RestoreTarget:
     """``restore_target`` whose ``ValueError``/``TypeError`` (a bad setting in the metadata) names ``source``."""
-    def target(*args):
+    def target(*args: Any) -> Any:
         try:
             return restore_target(*args)
         except (ValueError, TypeError) as e:
@@ -229,8 +226,9 @@ def _naming_source(restore_target, source: str):
     return target
 
 
-def load_trained(path, problem: str, nets, restore_target, net: str | None = None, check_meta=None,
-                 run_seed: int | None = None):
+def load_trained(path: PathLike, problem: str, nets: Collection[str], restore_target: RestoreTarget,
+                 net: str | None = None, check_meta: Callable[[dict, str], None] | None = None,
+                 run_seed: int | None = None) -> tuple[str, Any, dict, str]:
     """``(net_name, params, metadata, source)`` of a trained network, from a file or a training run.
 
     ``path`` is a parameter file of :func:`save` (``.msgpack``, suffix
@@ -270,7 +268,7 @@ def load_trained(path, problem: str, nets, restore_target, net: str | None = Non
         if meta.get("problem") != problem:
             raise ValueError(f"{source} is for problem {meta.get('problem')!r}, not {problem!r}")
     name = meta.get("net")
-    if name not in nets:
+    if not isinstance(name, str) or name not in nets:
         raise ValueError(f"{source}: metadata names net {name!r}, not one of the {problem} networks {tuple(nets)}")
     if net is not None and name != net:
         raise ValueError(f"{source} holds a {name!r} network, not {net!r}")

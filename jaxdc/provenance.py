@@ -13,6 +13,8 @@ import shlex
 import subprocess
 import sys
 
+from jaxdc._version import __version__
+
 
 @functools.lru_cache(maxsize=1)
 def git_commit() -> dict | None:
@@ -35,8 +37,6 @@ def provenance(argv: list[str] | None = None) -> dict:
     command line (``argv``, default ``sys.argv``)."""
     import jax
     import jaxlib
-
-    from jaxdc import __version__
 
     device = jax.devices()[0]
     return {

@@ -26,8 +26,11 @@ def test_every_shipped_file_has_an_entry_that_regenerates_it():
 
 
 def test_every_entry_names_a_dcp_network_and_its_tables():
-    for name, (tables, args) in ship.ALL.items():
-        assert tables and args[0] == "--net" and args[1] in ("enn", "linear", "cnn", "eqn"), name
+    from jaxdc.nets import DCP_NETS
+
+    for name, preset in ship.ALL.items():
+        args = preset.flags()
+        assert preset.description and args[0] == "--net" and args[1] in DCP_NETS, name
 
 
 def test_bad_steps_is_a_usage_error_naming_the_flag(capsys):
@@ -68,6 +71,16 @@ def test_every_strong_dcg_file_has_an_entry_whose_command_trains_it():
         entry.pop("resume"), recorded.pop("resume")  # a finished run resumed with --ship re-exports the same file
         assert recorded == entry, name
         assert entry["ship"] == f"jaxdc/assets/dcg/{name}.msgpack"
+
+
+def test_the_children_run_the_installed_jaxdc_command():
+    """train_all runs each recorded command through ``python -m jaxdc train ...`` (train/ is not in the wheel)."""
+    import sys
+
+    cmd = ship.train_command("enn", 2048, 0, "runs")
+    assert ship.jaxdc_command(cmd) == [sys.executable, "-m", "jaxdc", "train", "dcp", *cmd[3:]]
+    dcg = ship.train_command("vnn_strong", 2048, 0, "runs")
+    assert ship.jaxdc_command(dcg)[3:5] == ["train", "dcg"]
 
 
 def test_export_only_refuses_the_dcg_entries(capsys):

@@ -131,9 +131,9 @@ def test_jaxdc_make_dcg():
 def test_jaxdc_make():
     env, params = jaxdc.make("DCP-v0", grid_size=6, risk="medium", max_steps=50)
     assert isinstance(env, jaxdc.DCP) and env.grid_size == 6
-    assert isinstance(params, jaxdc.EnvParams) and int(params.max_steps) == 50
+    assert isinstance(params, jaxdc.DCPParams) and int(params.max_steps) == 50
     _, state = jax.eval_shape(env.reset, jax.random.PRNGKey(0), params)
-    assert isinstance(state, jaxdc.EnvState)
+    assert isinstance(state, jaxdc.DCPState)
 
 
 # -- determinism and the key scheme -----------------------------------------------------------

@@ -347,7 +347,7 @@ def main(argv=None) -> int:
             what = f"Table {spec.name}: {spec.caption}" if spec else f"policy {args.policy}"
             print(f"Evaluating {what}, {args.episodes} episodes, seed {args.seed} ...", file=sys.stderr)
             if learned is not None:
-                print(f"  learned: {learned_lib.describe(learned)}", file=sys.stderr)
+                print(f"  learned: {learned.describe()}", file=sys.stderr)
         settings = settle(args, spec, learned, argv)
         rows = evaluate_rows(settings.policies, settings.setting, settings.options, settings.playing,
                              settings.learned, progress)

@@ -15,29 +15,26 @@ import argparse
 import dataclasses
 import os
 import sys
+from collections.abc import Callable, Iterable
+from typing import Any
 
 from jaxdc.agents.a2c import A2CConfig
 from jaxdc.cli.args import nonnegative_float, positive_float, positive_int, seed, seed_list, unit_interval
 from jaxdc.core.energy import MAX_FINITE_ENERGY
 from jaxdc.io import check_output_folder
+from jaxdc.training import presets
+from jaxdc.training.fields import dest, flag, number_text
 from jaxdc.training.loop import LAYOUTS, RunControl
 
 #: Exit status of a run stopped by a NaN loss.
 EXIT_NAN = 3
-#: ``A2CConfig`` field -> the attribute of the parsed arguments that sets it (the flag is its dashed form).
-A2C_FLAGS = {"total_steps": "steps", "num_envs": "envs", "t_max": "t_max", "lr": "lr", "gamma": "gamma",
-             "entropy_coef": "entropy", "value_coef": "value_coef", "max_grad_norm": "max_grad_norm",
-             "reset_slots": "reset_slots", "gae_lambda": "gae_lambda", "clip_eps": "clip_eps",
-             "epochs": "epochs", "minibatches": "minibatches", "normalize_advantages": "normalize_advantages"}
+#: The ``A2CConfig`` fields that both command lines set (each by :func:`jaxdc.training.fields.flag` of it).
+A2C_FLAGS = ("total_steps", "num_envs", "t_max", "lr", "gamma", "entropy_coef", "value_coef", "max_grad_norm",
+             "reset_slots", "gae_lambda", "clip_eps", "epochs", "minibatches", "normalize_advantages")
 #: The learner options beside Algorithm 10 (not in the thesis; docs/learning.md) and their faithful defaults.
 LEARNER_OPTIONS = {f.name: f.default for f in dataclasses.fields(A2CConfig)
                    if f.name in ("gae_lambda", "clip_eps", "epochs", "minibatches", "normalize_advantages")}
 _DEFAULT = {f.name: f.default for f in dataclasses.fields(A2CConfig)}
-
-
-def flag(field: str) -> str:
-    """The command-line flag that sets ``A2CConfig`` field ``field`` (e.g. ``"--entropy"`` for ``entropy_coef``)."""
-    return "--" + A2C_FLAGS[field].replace("_", "-")
 
 
 def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eval_episodes: int = 500) -> None:
@@ -83,7 +80,7 @@ def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eva
 
 
 def add_config_arguments(p: argparse.ArgumentParser, problem: str) -> None:
-    """``--config NAME|FILE`` (a named configuration or a run's ``config.json``, :mod:`jaxdc.training.configs`)
+    """``--config NAME|FILE`` (a named configuration of :mod:`jaxdc.training.presets` or a run's ``config.json``)
     and ``--list-configs``."""
     p.add_argument("--config", metavar="NAME|FILE",
                    help="start from a named configuration (the recipe of a shipped network; --list-configs) or a "
@@ -91,45 +88,154 @@ def add_config_arguments(p: argparse.ArgumentParser, problem: str) -> None:
     p.add_argument("--list-configs", action="store_true", help="print the named configurations and exit")
 
 
-def parse_with_config(p: argparse.ArgumentParser, argv, problem: str):
-    """The parsed arguments, ``--config`` expanded into flags placed before the given ones (so those override it);
-    ``None`` after ``--list-configs`` printed the names. A bad configuration is a usage error (exit 2)."""
-    from jaxdc.training import configs
+#: Reads a run's ``config.json`` (already parsed) into ``(settings, seeds)``: the problem's
+#: ``settings_from_metadata`` (:func:`jaxdc.training.dcp.settings_from_metadata`, ...).
+FromMetadata = Callable[[object, str], tuple[Any, tuple[int, ...]]]
 
+
+def _pop_config(argv: list[str]) -> tuple[str | None, list[str]]:
+    """``(value of --config, argv without it)``; ``ValueError`` for a repeated or empty ``--config``."""
+    found = [i for i, a in enumerate(argv) if a == "--config" or a.startswith("--config=")]
+    if not found:
+        return None, argv
+    if len(found) > 1:
+        raise ValueError("--config given more than once")
+    i = found[0]
+    if argv[i] == "--config":
+        if i + 1 >= len(argv):
+            raise ValueError("--config needs a NAME or a run's config.json")
+        return argv[i + 1], argv[:i] + argv[i + 2:]
+    return argv[i].split("=", 1)[1], argv[:i] + argv[i + 1:]
+
+
+def _word(v: Any) -> str:
+    return number_text(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else str(v)
+
+
+def _checked(action: argparse.Action, field: str, v: Any, where: str) -> Any:
+    """``v`` as the flag of ``action`` would read it (its type and choices check it), or ``ValueError``."""
+    if action.nargs == 0:  # a switch
+        if not isinstance(v, bool):
+            raise ValueError(f"{where}: {field}={v!r} must be true or false ({action.option_strings[0]})")
+        return v
+    if isinstance(v, bool) or isinstance(v, dict):
+        raise ValueError(f"{where}: {field}={v!r} is no value of {action.option_strings[0]}")
+    if action.nargs is None and isinstance(v, (list, tuple)):
+        v = ",".join(map(_word, v))  # a comma-separated list (--strategies, --seeds)
+    values = list(v) if isinstance(v, (list, tuple)) else [v]
+    if isinstance(action.nargs, int) and len(values) != action.nargs:
+        raise ValueError(f"{where}: {field}={v!r} must hold {action.nargs} values ({action.option_strings[0]})")
+    out = []
+    for x in values:
+        if isinstance(x, (list, tuple, dict)) or isinstance(x, bool):
+            raise ValueError(f"{where}: {field}={v!r} is no value of {action.option_strings[0]}")
+        try:
+            x = action.type(_word(x)) if action.type is not None else _word(x)
+        except (argparse.ArgumentTypeError, TypeError, ValueError) as e:
+            raise ValueError(f"{where}: {e}") from None
+        if action.choices is not None and x not in action.choices:
+            raise ValueError(f"{where}: {field}={x!r} is not one of {action.option_strings[0]}'s choices "
+                             f"{tuple(action.choices)}")
+        out.append(x)
+    return tuple(out) if isinstance(action.nargs, int) else out[0]
+
+
+def set_field_defaults(p: argparse.ArgumentParser, fields: Iterable[tuple[str, Any]], where: str,
+                       no_flag_defaults: dict[str, Any] | None = None) -> None:
+    """Make the settings ``fields`` (``(field, value)``; ``None``: leave the default) the parser's defaults, each
+    checked as its flag checks a typed value; a field no flag sets must hold ``no_flag_defaults[field]``."""
+    actions = {a.dest: a for a in p._actions}
+    defaults = {}
+    for field, v in fields:
+        action = actions.get(dest(field))
+        if action is None:
+            default = (no_flag_defaults or {}).get(field, v)
+            if v != default:
+                raise ValueError(f"{where}: {field}={v!r} is set by no flag of {p.prog} (its default is {default!r})")
+            continue
+        if v is not None:
+            defaults[action.dest] = _checked(action, field, v, where)
+    p.set_defaults(**defaults)
+
+
+def _run_fields(settings: Any, seeds: tuple[int, ...], problem: str) -> list[tuple[str, Any]]:
+    """The settings fields a run's ``config.json`` records (:data:`jaxdc.metadata.RUN_KEYS`), its algorithm's
+    fields and its seeds."""
+    from jaxdc.metadata import RUN_KEYS
+
+    recorded = [k for k in RUN_KEYS[problem] if k not in ("format", "problem", "seed", "seeds", "algorithm")]
+    out = [(k, getattr(settings, k)) for k in recorded]
+    out += [(k, v) for k, v in dataclasses.asdict(settings.config).items() if k != "aux_coef" or problem == "dcp"]
+    return out + ([("seeds", list(seeds))] if len(seeds) > 1 else [("seed", seeds[0])])
+
+
+def config_defaults(p: argparse.ArgumentParser, value: str, problem: str, from_metadata: FromMetadata) -> None:
+    """Make configuration ``value`` the parser's defaults: a preset of :mod:`jaxdc.training.presets` by name, or
+    a run's ``config.json`` (or its folder) read by ``from_metadata``. ``ValueError`` for an unknown name, a file
+    that is not a run's ``config.json``, a configuration of the other problem, or a value its flag refuses."""
+    from jaxdc.io import read_json
+
+    if value in presets.EVERY:
+        preset = presets.EVERY[value]
+        if preset.problem != problem:
+            raise ValueError(f"--config {value!r} is a {preset.problem.upper()} configuration; use "
+                             f"python -m train.{preset.problem} --config {value}")
+        set_field_defaults(p, preset.fields().items(), f"--config {value}")
+        return
+    path = os.path.join(value, "config.json") if os.path.isdir(value) else value
+    if not os.path.isfile(path):
+        raise ValueError(f"--config {value!r} is neither a named configuration ({', '.join(presets.names(problem))})"
+                         " nor a run's config.json")
+    where = f"--config {path}"
+    try:
+        meta = read_json(path, "a run folder's config.json")
+    except ValueError as e:
+        raise ValueError(f"{where}: not a readable JSON file ({e})") from None
+    settings, seeds = from_metadata(meta, where)
+    no_flag = {f.name: f.default for f in dataclasses.fields(settings.config)}
+    set_field_defaults(p, _run_fields(settings, seeds, problem), where, no_flag)
+
+
+def parse_with_config(p: argparse.ArgumentParser, argv: list[str] | None, problem: str,
+                      from_metadata: FromMetadata) -> argparse.Namespace | None:
+    """The parsed arguments, ``--config`` made the parser's defaults (so flags given override it); ``None`` after
+    ``--list-configs`` printed the names. A bad configuration is a usage error (exit 2)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if "--list-configs" in argv:
-        print(configs.listing(problem))
+        print(presets.listing(problem))
         return None
     try:
-        argv = configs.expand(argv, problem)
+        value, argv = _pop_config(argv)
+        if value is not None:
+            config_defaults(p, value, problem, from_metadata)
     except ValueError as e:
         p.error(str(e))
     return p.parse_args(argv)
 
 
-def a2c_settings(args, fields=tuple(A2C_FLAGS)) -> dict:
+def a2c_settings(args: argparse.Namespace, fields: Iterable[str] = A2C_FLAGS) -> dict[str, Any]:
     """``A2CConfig`` keyword arguments from the parsed flags of :func:`add_a2c_arguments` (``fields``: which)."""
-    return {f: getattr(args, A2C_FLAGS[f]) for f in fields}
+    return {f: getattr(args, dest(f)) for f in fields}
 
 
-def learner_options_set(args) -> list[str]:
+def learner_options_set(args: argparse.Namespace) -> list[str]:
     """The flags of the learner options beside Algorithm 10 that ``args`` moves off their faithful default."""
-    return [flag(f) for f, default in LEARNER_OPTIONS.items() if getattr(args, A2C_FLAGS[f]) != default]
+    return [flag(f) for f, default in LEARNER_OPTIONS.items() if getattr(args, dest(f)) != default]
 
 
-def run_control(args, out: str) -> RunControl:
+def run_control(args: argparse.Namespace, out: str) -> RunControl:
     """The :class:`~jaxdc.training.loop.RunControl` of the parsed run-control flags, into run folder ``out``."""
     return RunControl(out=out, seeds=tuple(args.seeds or [args.seed]), devices=args.devices, resume=args.resume,
                       eval_every=args.eval_every, keep=args.keep, layout=args.layout, progress=not args.no_progress,
                       tensorboard=bool(getattr(args, "tensorboard", False)))
 
 
-def seed_tag(args) -> str:
+def seed_tag(args: argparse.Namespace) -> str:
     """The seeds of a run as they appear in its default folder name (``0``, ``0-1-2``)."""
     return "-".join(map(str, args.seeds or [args.seed]))
 
 
-def training_energy(name: str):
+def training_energy(name: str) -> Callable[[str], float]:
     """argparse type: an energy budget a training run can use, a finite number in ``(0, 2**24]``.
 
     An unlimited budget (``inf``) is refused: the trained network would read a constant energy plane and
@@ -137,7 +243,7 @@ def training_energy(name: str):
     """
     finite = positive_float(name, high=MAX_FINITE_ENERGY)
 
-    def parse(text):
+    def parse(text: str) -> float:
         try:
             if float(text) == float("inf"):
                 raise argparse.ArgumentTypeError(
@@ -157,6 +263,6 @@ def check_outputs(out: str, tensorboard: bool = False) -> None:
         check_output_folder(os.path.join(out, "tb"), "--tensorboard folder")
 
 
-def fmt(x, spec: str = ".3f") -> str:
+def fmt(x: float | None, spec: str = ".3f") -> str:
     """``x`` formatted with ``spec``, or ``n/a`` for an undefined statistic (``None``)."""
     return "n/a" if x is None else format(x, spec)

@@ -50,7 +50,8 @@ from jaxdc.cli.train_common import (EXIT_NAN, a2c_settings, add_a2c_arguments, a
                                     check_outputs, fmt, parse_with_config, run_control, seed_tag, training_energy)
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.io import check_output_path, enable_compilation_cache
-from jaxdc.training.dcg import NETS, DCGRun, DCGSettings
+from jaxdc.training.dcg import NETS, DCGRun, DCGSettings, settings_from_metadata
+from jaxdc.training.fields import SettingError
 
 
 #: EMNN's default weight of Eq. 5.1 (section 5.5.2).
@@ -127,7 +128,7 @@ def main(argv=None) -> int:
     or combination is a usage error (exit 2) naming the flag.
     """
     parser = build_parser()
-    args = parse_with_config(parser, argv, "dcg")
+    args = parse_with_config(parser, argv, "dcg", settings_from_metadata)
     if args is None:  # --list-configs
         return 0
     try:
@@ -139,6 +140,8 @@ def main(argv=None) -> int:
         enable_compilation_cache()
         run = DCGRun(settings, control)
         result = run.train()
+    except SettingError as e:
+        parser.error(e.render())
     except (ValueError, TypeError, MemoryError) as e:
         parser.error(str(e))
     if result["status"] == "nan":

@@ -37,11 +37,12 @@ from jaxdc.cli.train_common import (A2C_FLAGS, EXIT_NAN, a2c_settings, add_a2c_a
                                     seed_tag, training_energy)
 from jaxdc.core import generators, grid
 from jaxdc.io import enable_compilation_cache
-from jaxdc.training.dcp import NETS, DCPRun, DCPSettings
+from jaxdc.training.dcp import NETS, DCPRun, DCPSettings, settings_from_metadata
+from jaxdc.training.fields import SettingError
 
-#: The flags' settings n-step Q-learning shares with A2C: those of ``RunConfig`` (no loss weights or learner options).
 #: EQN's default environment steps between target-network copies (``QConfig.target_every``).
 TARGET_EVERY = QConfig.target_every
+#: The flags' settings n-step Q-learning shares with A2C: those of ``RunConfig`` (no loss weights or learner options).
 Q_FIELDS = tuple(f for f in A2C_FLAGS if f in {field.name for field in dataclasses.fields(RunConfig)})
 
 
@@ -125,7 +126,7 @@ def main(argv=None) -> int:
     usage error (exit 2) naming the flag.
     """
     parser = build_parser()
-    args = parse_with_config(parser, argv, "dcp")
+    args = parse_with_config(parser, argv, "dcp", settings_from_metadata)
     if args is None:  # --list-configs
         return 0
     try:
@@ -133,6 +134,8 @@ def main(argv=None) -> int:
         check_outputs(control.out, control.tensorboard)
         enable_compilation_cache()
         result = DCPRun(settings, control).train()
+    except SettingError as e:
+        parser.error(e.render())
     except (ValueError, TypeError, MemoryError) as e:
         parser.error(str(e))
     if result["status"] == "nan":

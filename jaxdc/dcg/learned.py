@@ -20,18 +20,20 @@ of training, with optional changes (energy, strategy set, reward area, ...).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
+from typing import Any
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from jaxdc import pretrained
 from jaxdc.core.tree_check import check_like
 from jaxdc.dcg.env import DCG
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
+from jaxdc.nets.registry import DCG_NETS, build
 
-#: Networks of section 5.4, in the order of the thesis' figures.
-NETS = ("vnn", "imnn", "emnn", "omn_conn")
+#: Networks of section 5.4, in the order of the thesis' figures (the registry :data:`jaxdc.nets.DCG_NETS`).
+NETS = tuple(DCG_NETS)
 #: The standard setting of section 5.5.1 (and ``train.dcg``'s defaults) for metadata that lacks a key.
 DEFAULT_SETTING = {"grid_size": 5, "total_reward": 10, "energy": 15.0, "max_steps": 100,
                    "strategies": list(STANDARD_STRATEGIES), "history": 10, "chase_tie": "straight"}
@@ -40,16 +42,12 @@ ENV_OPTION_KEYS = ("history_fill", "items_on_base", "opponent_start", "patrol_ta
                    "energy_metric", "reward_area", "min_reward_area")
 
 
-def make_network(name: str, history: int = 10):
+def make_network(name: str, history: int = 10) -> Any:
     """The flax module of ``name`` (:data:`NETS`) for a history of ``k = history`` planes."""
-    from jaxdc.nets import make_dcg_net
-
-    if name not in NETS:
-        raise ValueError(f"net must be one of {NETS}, got {name!r}")
-    return make_dcg_net(name, history=history)
+    return build("dcg", name, history=history)
 
 
-def init_params(net, grid_size: int, history: int, key=None):
+def init_params(net: Any, grid_size: int, history: int, key: jax.Array | None = None) -> Any:
     """Fresh parameters of ``net`` for observations ``[1, N, N, 2 + k]`` (``k = 0``: no history, VNN)."""
     obs = jnp.zeros((1, grid_size, grid_size, 2 + history), jnp.float32)
     return net.init(key if key is not None else jax.random.PRNGKey(0), obs, jnp.zeros((1, 1, 9), jnp.float32))
@@ -70,7 +68,7 @@ class Learned(pretrained.Learned):
         return out
 
     @property
-    def steps(self):
+    def steps(self) -> int | None:
         """Training steps (``T_max``), from the metadata; ``None`` if not recorded."""
         return self.metadata.get("steps", self.metadata.get("algorithm", {}).get("total_steps"))
 
@@ -79,7 +77,15 @@ class Learned(pretrained.Learned):
         """Whether the network predicts the opponent's action (EMNN, OMN + CoNN)."""
         return bool(getattr(self.net, "has_aux", False))
 
-    def game(self, energy=None, strategies=None, reward_area=None, max_steps=None):
+    def env_options(self) -> dict:
+        """The ``DCG(...)`` options of training that change the dynamics (:data:`ENV_OPTION_KEYS`; only those
+        recorded, in the metadata's ``"env"`` or at its top level)."""
+        meta_env = self.metadata.get("env", {})
+        options = {k: meta_env.get(k, self.metadata.get(k)) for k in ENV_OPTION_KEYS}
+        return {k: v for k, v in options.items() if v is not None}
+
+    def game(self, energy: float | None = None, strategies: Any = None, reward_area: int | None = None,
+             max_steps: int | None = None) -> tuple[DCG, Any]:
         """``(env, params)``: the DCG of training, with the given settings changed.
 
         ``reward_area`` (Figs. 5.10-5.12) places one unit item uniformly in the
@@ -88,9 +94,7 @@ class Learned(pretrained.Learned):
         play the same games.
         """
         s = self.setting()
-        meta_env = self.metadata.get("env", {})
-        options = {k: meta_env.get(k, self.metadata.get(k)) for k in ENV_OPTION_KEYS}
-        options = {k: v for k, v in options.items() if v is not None}
+        options = self.env_options()
         if reward_area is not None:  # one size: the game of that figure, not the training mix
             options["reward_area"] = reward_area
             options.pop("min_reward_area", None)
@@ -105,7 +109,7 @@ class Learned(pretrained.Learned):
                                  chase_tie=s["chase_tie"])
         return env, params
 
-    def policy(self, greedy: bool = False):
+    def policy(self, greedy: bool = False) -> Callable:
         """``policy(key, obs, state) -> action``: samples from ``pi`` (section 5.5.1: "The collector's policy is
         stochastic"), or takes its argmax if ``greedy`` (the deterministic policy of Figs. 5.13-5.15)."""
         from jaxdc.agents import a2c
@@ -133,14 +137,14 @@ def _check(name, net, params, meta, source):
                       "was it trained on another grid size or history length?")
 
 
-def load(path, net: str | None = None) -> Learned:
+def load(path: pretrained.PathLike, net: str | None = None) -> Learned:
     """Load a trained DCG network from a parameter file (``.msgpack``) or a ``train.dcg`` run folder.
 
     ``net``, when given, must be the stored network's name (else ``ValueError``;
     :func:`jaxdc.pretrained.load_trained`). Parameters holding NaN or infinity are refused
     (:func:`jaxdc.pretrained.check_finite`).
     """
-    def target(name, meta, source):
+    def target(name: str, meta: dict, source: str) -> Any:
         return train_state_template(make_network(name, meta.get("history", DEFAULT_SETTING["history"])), meta, source)
 
     name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net)
@@ -149,7 +153,7 @@ def load(path, net: str | None = None) -> Learned:
     return Learned(name, module, params, meta, source)
 
 
-def train_state_template(module, meta: dict, source: str):
+def train_state_template(module: Any, meta: dict, source: str) -> Any:
     """An initial A2C training state with the structure of a ``train.dcg`` checkpoint of ``meta`` (the restore target).
 
     Built like ``train.dcg`` builds it: the game of ``meta`` and ``A2CConfig(**meta["algorithm"])``.

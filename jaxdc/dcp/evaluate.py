@@ -64,14 +64,14 @@ def evaluate_heuristic(
 
 @functools.partial(jax.jit, static_argnames=("env", "net", "net_name", "episodes", "greedy", "cfg", "path_risk"))
 def _run_learned(env, params, key, net, net_name, net_params, episodes, greedy, epsilon, cfg, path_risk):
-    from jaxdc.dcp.learned import Learned, make_policy
+    from jaxdc.dcp.learned import Learned
 
     if params.maps is None:
         heuristics = navigators.batched_heuristics(params, safest_paths(params.risk, path_risk), cfg)
     else:  # per-episode maps: each episode's own table (computed with the default path_risk)
         heuristics = instances.batched_heuristics(params, cfg)
     learned = Learned(net_name, net, net_params, {}, "")
-    return run_episodes(env, params, make_policy(learned, heuristics, greedy, epsilon), key, episodes)
+    return run_episodes(env, params, learned.policy(heuristics, greedy, epsilon), key, episodes)
 
 
 def evaluate_learned(

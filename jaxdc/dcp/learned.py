@@ -18,16 +18,19 @@ names the file and the problem.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
+from typing import Any
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from jaxdc import pretrained
 from jaxdc.core.tree_check import check_like
+from jaxdc.nets.registry import DCP_NETS, NSTEP_Q, build
 
-#: Networks that have a learned DCP policy (``enn``, ``linear``, ``cnn``: A2C; ``eqn``: n-step Q).
-NETS = ("enn", "linear", "cnn", "eqn")
+#: Networks that have a learned DCP policy (the registry :data:`jaxdc.nets.DCP_NETS`: ``enn``, ``linear``,
+#: ``cnn``: A2C; ``eqn``: n-step Q).
+NETS = tuple(DCP_NETS)
 #: The evaluation epsilon of EQN's epsilon-greedy policy (section 4.5.5).
 EQN_EPSILON = 0.05
 #: Settings of the environment a network was trained in, as stored in its metadata.
@@ -60,24 +63,41 @@ class Learned(pretrained.Learned):
         """``"thesis"`` or ``"general"``: what the network reads (:data:`jaxdc.dcp.env.OBSERVATIONS`)."""
         return observation_of(self.metadata)
 
+    def policy(self, heuristics: Any = None, greedy: bool = False, epsilon: float = EQN_EPSILON) -> Callable:
+        """``policy(key, obs, state)`` of the network for :func:`jaxdc.core.rollout.run_episodes`.
 
-def make_network(net_name: str):
+        Actor-critics sample from ``pi`` (section 4.5: "the output of ENN is used
+        as a stochastic policy"), or take its argmax if ``greedy``. EQN is
+        epsilon-greedy with ``epsilon`` (section 4.5.5: 0.05; 0 if ``greedy``).
+        """
+        from jaxdc.agents import a2c, nstep_q
+
+        if DCP_NETS[self.net_name].algorithm == NSTEP_Q:
+            return nstep_q.make_q_policy(self.net, self.params, heuristics, epsilon=0.0 if greedy else epsilon)
+        return a2c.make_policy(self.net, self.params, heuristics, greedy=greedy)
+
+    def describe(self) -> str:
+        """One line: network, training setting and source."""
+        s = self.setting()
+        return (f"{self.net_name} trained on {s['grid_size']}x{s['grid_size']}, risk {s['risk']}, "
+                f"total reward {s['total_reward']}, energy {float(s['energy'][0]):g}/{float(s['energy'][1]):g}, "
+                f"{_trained_for(self.metadata)}, seed {self.metadata.get('seed', '?')} ({self.source})")
+
+
+def make_network(net_name: str) -> Any:
     """The flax module of ``net_name`` (ENN Fig. 4.3, EQN Fig. 4.4, linear learner Table 4.9, CNN)."""
-    from jaxdc.nets import EQN, make_net
-
-    if net_name not in NETS:
-        raise ValueError(f"net must be one of {NETS}, got {net_name!r}")
-    return EQN() if net_name == "eqn" else make_net(net_name)
+    return build("dcp", net_name)
 
 
-def init_params(net, grid_size: int, key=None, observation: str = "thesis"):
+def init_params(net: Any, grid_size: int, key: jax.Array | None = None, observation: str = "thesis") -> Any:
     """Freshly initialised parameters of ``net`` for an ``grid_size x grid_size`` grid (shapes only matter)."""
     obs = jnp.zeros((1, grid_size, grid_size, 2 if observation == "thesis" else 4), jnp.float32)
     heur = jnp.zeros((1, 10, 9), jnp.float32) if getattr(net, "uses_heuristics", True) else jnp.zeros((1, 1, 9))
     return net.init(key if key is not None else jax.random.PRNGKey(0), obs, heur)
 
 
-def check_params(net_name: str, net, params, grid_size: int, source: str, observation: str = "thesis"):
+def check_params(net_name: str, net: Any, params: Any, grid_size: int, source: str,
+                 observation: str = "thesis") -> Any:
     """``params`` as float32 if it has exactly the structure and shapes of ``net`` on ``grid_size`` and every value
     is finite, else ``ValueError`` naming ``source``."""
     params = check_like(init_params(net, grid_size, observation=observation), params, source,
@@ -87,8 +107,8 @@ def check_params(net_name: str, net, params, grid_size: int, source: str, observ
     return params
 
 
-def _grid_checker(grid_size: int | None):
-    def check(meta: dict, source: str):
+def _grid_checker(grid_size: int | None) -> Callable[[dict, str], None]:
+    def check(meta: dict, source: str) -> None:
         have = meta.get("grid_size", DEFAULT_SETTING["grid_size"])
         if grid_size is not None and have != grid_size:
             raise ValueError(f"{source} was trained on a {have}x{have} grid; it cannot play a "
@@ -96,7 +116,7 @@ def _grid_checker(grid_size: int | None):
     return check
 
 
-def load(path, net: str | None = None, grid_size: int | None = None, run_seed: int | None = None) -> Learned:
+def load(path: pretrained.PathLike, net: str | None = None, grid_size: int | None = None, run_seed: int | None = None) -> Learned:
     """Load a learned policy from a parameter file (``.msgpack``) or a ``train.dcp`` run folder.
 
     ``net`` and ``grid_size``, when given, must match the stored metadata
@@ -112,20 +132,20 @@ def load(path, net: str | None = None, grid_size: int | None = None, run_seed: i
     return Learned(name, module, params, meta, source)
 
 
-def _train_state(name: str, meta: dict, source: str):
+def _train_state(name: str, meta: dict, source: str) -> Any:
     """An initial training state with the structure of a ``train.dcp`` checkpoint of ``meta`` (restore target)."""
     from jaxdc.agents import a2c, nstep_q
     from jaxdc.core.paths import safest_paths
     from jaxdc.dcp import navigators
-    from jaxdc.dcp.env import DCP
-
     from jaxdc.dcp import instances
+    from jaxdc.dcp.env import DCP
 
     s = {k: meta.get(k, DEFAULT_SETTING[k]) for k in SETTING_KEYS}
     env = DCP(grid_size=s["grid_size"], total_reward=s["total_reward"], observation=observation_of(meta))
     env_params = env.make_params(s["risk"], tuple(s["energy"]), s["max_steps"])
     per_episode = "risk_maps" in meta or "energy_range" in meta
-    cls = nstep_q.QConfig if name == "eqn" else a2c.A2CConfig
+    q_learning = DCP_NETS[name].algorithm == NSTEP_Q
+    cls = nstep_q.QConfig if q_learning else a2c.A2CConfig
     fields = {f.name for f in dataclasses.fields(cls)}
     algo = {k: v for k, v in meta.get("algorithm", {}).items() if k in fields}
     try:
@@ -137,11 +157,11 @@ def _train_state(name: str, meta: dict, source: str):
         heur = instances.batched_heuristics(env_params)
     else:
         heur = navigators.batched_heuristics(env_params, safest_paths(env_params.risk))
-    trainer = (nstep_q if name == "eqn" else a2c).make_train(config, env, env_params, make_network(name), heur)
+    trainer = (nstep_q if q_learning else a2c).make_train(config, env, env_params, make_network(name), heur)
     return trainer.init(jax.random.PRNGKey(0))
 
 
-def shipped_name(net: str, risk: str = "high", energy=(8.0, 16.0)) -> str:
+def shipped_name(net: str, risk: str = "high", energy: tuple[float, float] = (8.0, 16.0)) -> str:
     """Name of the shipped parameter file of ``net`` trained with ``risk`` and ``energy`` (section 4.5).
 
     The ENN of Table 4.3 (high risk, energy 8/16) is ``"enn"``; the ENN of
@@ -158,7 +178,8 @@ def shipped_name(net: str, risk: str = "high", energy=(8.0, 16.0)) -> str:
     return name
 
 
-def shipped(net: str, risk: str = "high", energy=(8.0, 16.0), grid_size: int | None = None) -> Learned:
+def shipped(net: str, risk: str = "high", energy: tuple[float, float] = (8.0, 16.0),
+            grid_size: int | None = None) -> Learned:
     """The shipped learned policy of ``net`` trained in the given risk and energy setting (see :func:`shipped_name`)."""
     name = shipped_name(net, risk, energy)
     try:
@@ -169,31 +190,7 @@ def shipped(net: str, risk: str = "high", energy=(8.0, 16.0), grid_size: int | N
     return load(path, net=net, grid_size=grid_size)
 
 
-def make_policy(learned: Learned, heuristics=None, greedy: bool = False, epsilon: float = EQN_EPSILON):
-    """``policy(key, obs, state)`` of a learned network for :func:`jaxdc.core.rollout.run_episodes`.
-
-    Actor-critics sample from ``pi`` (section 4.5: "the output of ENN is used
-    as a stochastic policy"), or take its argmax if ``greedy``. EQN is
-    epsilon-greedy with ``epsilon`` (section 4.5.5: 0.05; 0 if ``greedy``).
-    """
-    from jaxdc.agents import a2c, nstep_q
-
-    if learned.net_name == "eqn":
-        return nstep_q.make_q_policy(learned.net, learned.params, heuristics, epsilon=0.0 if greedy else epsilon)
-    return a2c.make_policy(learned.net, learned.params, heuristics, greedy=greedy)
-
-
 def _trained_for(meta: dict) -> str:
     if "steps" in meta:
         return f"{meta['steps']} steps"
     return f"{meta['updates']} updates" if "updates" in meta else "? steps"
-
-
-def describe(learned: Learned) -> str:
-    """One line: network, training setting and source."""
-    s = learned.setting()
-    return (f"{learned.net_name} trained on {s['grid_size']}x{s['grid_size']}, risk {s['risk']}, "
-            f"total reward {s['total_reward']}, energy {float(s['energy'][0]):g}/{float(s['energy'][1]):g}, "
-            f"{_trained_for(learned.metadata)}, seed {learned.metadata.get('seed', '?')} "
-            f"({learned.source})")
-

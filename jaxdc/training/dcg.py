@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Iterable
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -23,18 +25,17 @@ from jaxdc import pretrained
 from jaxdc.agents import a2c
 from jaxdc.core.env import step_batch
 from jaxdc.core.rollout import run_episodes
-from jaxdc.dcg.env import DCG
+from jaxdc.core.stats import episode_summary
+from jaxdc.dcg.env import DCG, OUTCOMES
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
-from jaxdc.dcp.evaluate import summarize
-from jaxdc.nets import DCG_NETS, make_dcg_net
+from jaxdc.metadata import FORMAT, algorithm_config, check_run
+from jaxdc.nets import DCG_NETS, build
+from jaxdc.training.fields import SettingError
 from jaxdc.training.loop import (RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits,
                                  spread)
-from jaxdc.training.metadata import FORMAT
 
-#: The networks a DCG run trains (the names of :data:`jaxdc.nets.DCG_NETS`).
+#: The networks a DCG run trains (the names of the registry :data:`jaxdc.nets.DCG_NETS`).
 NETS = tuple(DCG_NETS)
-#: Networks with the opponent-action head (``has_aux``).
-AUX_NETS = ("emnn", "omn_conn")
 LOSS_METRICS = ("loss", "policy_loss", "value_loss", "entropy", "aux_loss", "aux_accuracy")
 CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", *LOSS_METRICS, "train_episodes",
               "train_reward", "eval_reward", "eval_reward_sd", "eval_rpe", "eval_opponent_accuracy")
@@ -72,11 +73,12 @@ class DCGSettings:
 
     @property
     def has_aux(self) -> bool:
-        return self.net in AUX_NETS
+        """Whether the network has the opponent-action head (the registry's ``has_aux``: EMNN, OMN + CoNN)."""
+        return DCG_NETS[self.net].has_aux
 
 
-def opponent_accuracy(env, env_params, net, params, key, num_envs: int = ACCURACY_ENVS,
-                      steps: int = ACCURACY_STEPS):
+def opponent_accuracy(env: DCG, env_params: Any, net: Any, params: Any, key: jax.Array,
+                      num_envs: int = ACCURACY_ENVS, steps: int = ACCURACY_STEPS) -> jax.Array:
     """Share of steps on which the argmax of the opponent-action head equals ``o_t`` (section 5.5.3).
 
     ``num_envs`` games played for ``steps`` steps with the stochastic policy (auto-reset); the
@@ -98,7 +100,7 @@ def opponent_accuracy(env, env_params, net, params, key, num_envs: int = ACCURAC
     return jnp.mean(hits)
 
 
-def make_env(s: DCGSettings) -> tuple[DCG, object]:
+def make_env(s: DCGSettings) -> tuple[DCG, Any]:
     """The DCG of the run and its params; VNN's needs no history planes."""
     history_net = s.net != "vnn"
     env = DCG(grid_size=s.grid_size, total_reward=s.total_reward, strategies=",".join(s.strategies),
@@ -107,7 +109,7 @@ def make_env(s: DCGSettings) -> tuple[DCG, object]:
     return env, env.make_params(energy=s.energy, max_steps=s.max_steps)
 
 
-def run_metadata(s: DCGSettings, env: DCG, seeds) -> dict:
+def run_metadata(s: DCGSettings, env: DCG, seeds: Iterable[int]) -> dict[str, Any]:
     """The run's metadata (``config.json``, checkpoints) in the current format."""
     seeds = list(seeds)
     return {
@@ -121,15 +123,38 @@ def run_metadata(s: DCGSettings, env: DCG, seeds) -> dict:
     }
 
 
+def settings_from_metadata(meta: object, where: str) -> tuple[DCGSettings, tuple[int, ...]]:
+    """``(settings, seeds)`` of the run whose metadata (``config.json``, :func:`run_metadata`) is ``meta``: what
+    retrains it. The evaluation (``eval_episodes``, ``greedy_eval``) is not recorded and keeps its defaults; VNN's
+    recorded ``history`` 0 (no history planes) is the default ``k``. Each failure is a ``ValueError`` naming
+    ``where`` (:func:`jaxdc.metadata.check_run`)."""
+    meta = check_run(meta, "dcg", where)
+    setting = {k: meta[k] for k in ("alpha", "energy", "grid_size", "total_reward", "max_steps", "reward_area",
+                                    "min_reward_area") if meta.get(k) is not None}
+    if meta.get("history"):
+        setting["history"] = meta["history"]
+    if "strategies" in meta:
+        strategies = meta["strategies"]
+        if not isinstance(strategies, list) or not all(isinstance(x, str) for x in strategies):
+            raise ValueError(f"{where}: strategies={strategies!r} must be a list of strategy names")
+        setting["strategies"] = tuple(strategies)
+    try:
+        settings = DCGSettings(net=meta["net"], config=algorithm_config(meta["net"], meta["algorithm"]), **setting)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{where}: {e}") from None
+    return settings, tuple(meta["seeds"]) if meta.get("seeds") else (meta.get("seed", 0),)
+
+
 class DCGRun(TrainingRun):
     """A DCG training run: its network and game, and the loop of :class:`TrainingRun`."""
 
-    def __init__(self, settings: DCGSettings, control: RunControl):
+    def __init__(self, settings: DCGSettings, control: RunControl) -> None:
         s = self.settings = settings
-        self.net = make_dcg_net(s.net, s.history)  # validates net and k
+        self.net = build("dcg", s.net, history=s.history)  # validates net and k
         self.env, self.env_params = make_env(s)  # validates grid, strategies, energy
         if s.config.aux_lr is not None and s.net != "omn_conn":
-            raise ValueError(f"--omn-lr sets OMN's learning rate and applies to --net omn_conn only, not {s.net!r}")
+            raise SettingError(f"{{0}} sets OMN's learning rate and applies to {{1}} omn_conn only, not "
+                               f"{SettingError.text(repr(s.net))}", "aux_lr", "net")
         check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
         aux = s.has_aux
         trainer, mesh = spread(a2c.make_train(s.config, self.env, self.env_params, self.net,
@@ -148,12 +173,12 @@ class DCGRun(TrainingRun):
                                           self.evaluate, LOSS_METRICS, CSV_FIELDS))
         check_evaluation_fits(self, self._evaluate)
 
-    def evaluate(self, params, key) -> list[dict]:
+    def evaluate(self, params: Any, key: jax.Array) -> list[dict]:
         """Evaluation columns of each seed."""
         finals, acc = jax.device_get(self._evaluate(params, key))
         rows = []
         for i in range(len(self.seeds)):
-            r = summarize(jax.tree_util.tree_map(lambda x: x[i], finals) if self.multi else finals)
+            r = episode_summary(jax.tree_util.tree_map(lambda x: x[i], finals) if self.multi else finals, OUTCOMES)
             row = {"eval_reward": r["reward"]["mean"], "eval_reward_sd": r["reward"]["sd"],
                    "eval_rpe": r["rpe"]["mean"]}
             if self.settings.has_aux:

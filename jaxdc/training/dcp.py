@@ -13,6 +13,8 @@ the number from ``min_total_reward..total_reward``.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable, Iterable
+from typing import Any
 
 import jax
 
@@ -22,14 +24,14 @@ from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import instances, navigators
 from jaxdc.dcp.evaluate import summarize
-from jaxdc.nets import ACTOR_CRITICS, EQN, make_net
+from jaxdc.metadata import FORMAT, algorithm_config, check_run
+from jaxdc.nets import DCP_NETS, NSTEP_Q, build
 from jaxdc.training.loop import (RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits,
                                  spread)
 from jaxdc.training.instances import check_instance_settings, instance_metadata, training_params
-from jaxdc.training.metadata import FORMAT
 
-#: Networks: the actor-critics train with A2C, EQN with n-step Q-learning.
-NETS = tuple(sorted(ACTOR_CRITICS)) + ("eqn",)
+#: Networks (the registry :data:`jaxdc.nets.DCP_NETS`): the actor-critics train with A2C, EQN with n-step Q-learning.
+NETS = tuple(DCP_NETS)
 LOSS_METRICS = ("loss", "policy_loss", "value_loss", "entropy", "q_mean", "epsilon")
 CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", *LOSS_METRICS, "train_episodes",
               "train_reward", "eval_reward", "eval_reward_sd", "eval_energy", "eval_rpe")
@@ -78,16 +80,21 @@ class DCPSettings:
         """Whether episodes draw their own instance (a map set or a budget range)."""
         return self.risk_maps is not None or self.energy_range is not None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.net not in NETS:
             raise ValueError(f"net must be one of {NETS}, got {self.net!r}")
-        want = nstep_q.QConfig if self.net == "eqn" else a2c.A2CConfig
+        want = nstep_q.QConfig if self.uses_q_learning else a2c.A2CConfig
         if not isinstance(self.config, want):
             raise TypeError(f"net {self.net!r} trains with a {want.__name__}, got {type(self.config).__name__}")
         check_instance_settings(self)
 
+    @property
+    def uses_q_learning(self) -> bool:
+        """Whether the network trains with n-step Q-learning (EQN) rather than A2C."""
+        return DCP_NETS[self.net].algorithm == NSTEP_Q
 
-def run_metadata(s: DCPSettings, seeds) -> dict:
+
+def run_metadata(s: DCPSettings, seeds: Iterable[int]) -> dict[str, Any]:
     """The run's metadata (``config.json``, checkpoints) in the current format."""
     seeds = list(seeds)
     return {
@@ -99,13 +106,36 @@ def run_metadata(s: DCPSettings, seeds) -> dict:
     }
 
 
+def settings_from_metadata(meta: object, where: str) -> tuple[DCPSettings, tuple[int, ...]]:
+    """``(settings, seeds)`` of the run whose metadata (``config.json``, :func:`run_metadata`) is ``meta``: what
+    retrains it. The evaluation (``eval_episodes``, ``greedy_eval``, ``eval_epsilon``) is not recorded and keeps
+    its defaults. Each failure is a ``ValueError`` naming ``where`` (:func:`jaxdc.metadata.check_run`)."""
+    meta = check_run(meta, "dcp", where)
+    energy = meta.get("energy", list(DCPSettings.energy))
+    if not isinstance(energy, list) or len(energy) != 2:
+        raise ValueError(f"{where}: energy={energy!r} must be a pair [initial, maximum]")
+    setting = {k: meta[k] for k in ("risk", "grid_size", "total_reward", "min_total_reward", "max_steps",
+                                    "observation", "risk_maps", "init_fraction") if meta.get(k) is not None}
+    for k in ("map_seeds", "energy_range"):  # pairs, stored as lists
+        if meta.get(k) is not None:
+            if not isinstance(meta[k], list) or len(meta[k]) != 2:
+                raise ValueError(f"{where}: {k}={meta[k]!r} must be a pair")
+            setting[k] = tuple(meta[k])
+    try:
+        settings = DCPSettings(net=meta["net"], config=algorithm_config(meta["net"], meta["algorithm"]),
+                               energy=(energy[0], energy[1]), **setting)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{where}: {e}") from None
+    return settings, tuple(meta["seeds"]) if meta.get("seeds") else (meta.get("seed", 0),)
+
+
 class DCPRun(TrainingRun):
     """A DCP training run: its network, environment and heuristics, and the loop of :class:`TrainingRun`."""
 
-    def __init__(self, settings: DCPSettings, control: RunControl):
+    def __init__(self, settings: DCPSettings, control: RunControl) -> None:
         s = self.settings = settings
-        algo = nstep_q if s.net == "eqn" else a2c
-        self.net = EQN() if s.net == "eqn" else make_net(s.net)
+        algo = nstep_q if s.uses_q_learning else a2c
+        self.net = build("dcp", s.net)
         self.env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward,
                                min_total_reward=s.min_total_reward, observation=s.observation)
         if s.per_episode:
@@ -129,15 +159,15 @@ class DCPRun(TrainingRun):
                                           LOSS_METRICS, CSV_FIELDS))
         check_evaluation_fits(self, self._episodes)
 
-    def policy(self, params):
+    def policy(self, params: Any) -> Callable:
         """The evaluation policy: sampled from pi (argmax if ``greedy_eval``); EQN: epsilon-greedy."""
         s = self.settings
-        if s.net == "eqn":
+        if s.uses_q_learning:
             return nstep_q.make_q_policy(self.net, params, self.heuristics,
                                          epsilon=0.0 if s.greedy_eval else s.eval_epsilon)
         return a2c.make_policy(self.net, params, self.heuristics, greedy=s.greedy_eval)
 
-    def evaluate(self, params, key) -> list[dict]:
+    def evaluate(self, params: Any, key: jax.Array) -> list[dict]:
         """Evaluation columns of each seed."""
         results = jax.device_get(self._episodes(params, key))
         rows = []

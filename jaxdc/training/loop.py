@@ -20,7 +20,6 @@ from __future__ import annotations
 import dataclasses
 import os
 import sys
-import tempfile
 import time
 from typing import Any, Callable
 
@@ -31,9 +30,10 @@ from jaxdc import checkpoint
 from jaxdc.agents import parallel
 from jaxdc.agents.common import RunConfig, Trainer, lr_schedule
 from jaxdc.core import memory
-from jaxdc.io import atomic_write_json
+from jaxdc.io import atomic_write_json, check_output_folder
 from jaxdc.provenance import provenance
-from jaxdc.training import metadata as metadata_format
+from jaxdc import metadata as metadata_format
+from jaxdc.training.fields import SettingError
 from jaxdc.training.metrics import read_rows, tensorboard_writer, write_rows
 
 #: How updates are driven: one jitted update per Python iteration, or ``n`` updates in one ``lax.scan``.
@@ -86,7 +86,7 @@ class RunSpec:
       config: the algorithm's config (``batch_size``, ``num_updates``).
       trainer: the trainer, already spread by :func:`spread` (``init``, ``update``, ``run``).
       mesh: the mesh :func:`spread` placed it on.
-      metadata: the run's metadata (``config.json``; checked on resume after :func:`jaxdc.training.metadata.upgrade`).
+      metadata: the run's metadata (``config.json``; checked on resume after :func:`jaxdc.metadata.upgrade`).
       evaluate: ``(params, key) -> [columns]``, one dict of evaluation columns per seed (keys from
         :meth:`TrainingRun.eval_key`).
       loss_metrics: training metrics averaged into each row.
@@ -104,15 +104,15 @@ class RunSpec:
     postfix_key: str = "eval_reward"
 
 
-def spread(trainer: Trainer, control: RunControl, num_envs: int):
+def spread(trainer: Trainer, control: RunControl, num_envs: int) -> tuple[Trainer, Any]:
     """``(trainer, mesh)``: ``trainer`` split over ``control.devices`` (default all) and vmapped over its seeds."""
     available = len(jax.devices())
     if control.devices is not None and control.devices > available:
-        raise ValueError(f"--devices {control.devices}: JAX sees only {available} device(s)")
+        raise SettingError(f"{{0}} {control.devices}: JAX sees only {available} device(s)", "devices")
     devices = control.devices or available
     if num_envs % devices:
-        raise ValueError(f"--envs ({num_envs}) must be divisible by the number of devices ({devices}); "
-                         "change --envs or pass --devices")
+        raise SettingError(f"{{0}} ({num_envs}) must be divisible by the number of devices ({devices}); "
+                           "change {0} or pass {1}", "num_envs", "devices")
     mesh = parallel.data_mesh(devices)
     return parallel.parallelize(trainer, mesh, len(control.seeds) if control.multi else None), mesh
 
@@ -122,30 +122,20 @@ def spread(trainer: Trainer, control: RunControl, num_envs: int):
 BATCH_COPIES = 4
 
 
-def check_batch_fits(config: RunConfig, env, env_params, seeds: int = 1) -> None:
+def check_batch_fits(config: RunConfig, env: Any, env_params: Any, seeds: int = 1) -> None:
     """``MemoryError`` before any compilation if a rollout batch (``seeds * num_envs * t_max`` observations,
     :data:`BATCH_COPIES` copies) cannot fit in the device's memory; the message says what to lower."""
     obs = jax.eval_shape(env.reset_env, jax.random.PRNGKey(0), env_params)[0]
     needed = BATCH_COPIES * seeds * config.num_envs * (config.t_max + 1) * memory.tree_bytes(obs)
     memory.check_fits(needed, f"a rollout batch of {seeds} x {config.num_envs} environments x {config.t_max} "
-                              "steps", "--envs or --t-max (or the number of --seeds)")
+                              "steps", "num_envs or t_max (or the number of seeds)")
 
 
-def check_evaluation_fits(run, evaluate) -> None:
+def check_evaluation_fits(run: TrainingRun, evaluate: Callable) -> None:
     """Trace (without running) ``evaluate(params, key)`` of ``run``, so that the memory check of its episodes
-    (:func:`jaxdc.core.rollout.run_episodes`) refuses a too large ``--eval-episodes`` before training starts."""
+    (:func:`jaxdc.core.rollout.run_episodes`) refuses a too large ``eval_episodes`` before training starts."""
     params = jax.eval_shape(run.trainer.init, run.init_key()).params
     jax.eval_shape(evaluate, params, run.eval_key(0))
-
-
-def check_writable(folder: str) -> None:
-    """Create ``folder`` if needed; raise a ``ValueError`` naming it if it cannot be written."""
-    try:
-        os.makedirs(folder, exist_ok=True)
-        with tempfile.TemporaryFile(dir=folder):
-            pass
-    except OSError as e:
-        raise ValueError(f"output folder {folder!r} is not writable: {e}") from None
 
 
 class TrainingRun:
@@ -154,17 +144,17 @@ class TrainingRun:
     Each seed gets its own CSV (and TensorBoard folder), one checkpoint holds all seeds.
     """
 
-    def __init__(self, control: RunControl, spec: RunSpec):
+    def __init__(self, control: RunControl, spec: RunSpec) -> None:
         if control.layout not in LAYOUTS:
             raise ValueError(f"layout must be one of {LAYOUTS}, got {control.layout!r}")
         if control.tensorboard:
             tensorboard_writer(None)  # fail before any work if tensorboardX is missing
         self.control, self.spec = control, spec
-        self.final_state = None
+        self.final_state: Any = None
 
     # the pieces, by name
     @property
-    def config(self):
+    def config(self) -> Any:
         return self.spec.config
 
     @property
@@ -191,22 +181,22 @@ class TrainingRun:
     def multi(self) -> bool:
         return self.control.multi
 
-    def _keys(self, offset: int = 0):
+    def _keys(self, offset: int = 0) -> jax.Array:
         keys = [jax.random.PRNGKey(s + offset) for s in self.control.seeds]
         return jax.numpy.stack(keys) if self.multi else keys[0]
 
-    def init_key(self):
+    def init_key(self) -> jax.Array:
         """The key of ``trainer.init`` (stacked per seed when several)."""
         return self._keys()
 
-    def eval_key(self, update: int):
+    def eval_key(self, update: int) -> jax.Array:
         """The evaluation key at ``update`` (stacked per seed; each seed's equals its single run's)."""
         base = self._keys(EVAL_SEED_OFFSET)
         if self.multi:
             return jax.vmap(jax.random.fold_in, in_axes=(0, None))(base, update)
         return jax.random.fold_in(base, update)
 
-    def place(self, state):
+    def place(self, state: Any) -> Any:
         """Put a restored state on the devices (as :func:`spread` placed the trainer's)."""
         mesh = self.spec.mesh
         return state if mesh is None else parallel.place(state, mesh, seed_axis=self.multi)
@@ -219,20 +209,21 @@ class TrainingRun:
                 for s in self.seeds]
 
     # -- state --------------------------------------------------------------------------
-    def initial_state(self):
+    def initial_state(self) -> Any:
         """A fresh state (writes ``config.json``), or with ``resume`` the latest checkpoint's."""
-        check_writable(self.out)
+        check_output_folder(self.out, "output folder")
+        os.makedirs(self.out, exist_ok=True)
         state = self.trainer.init(self.init_key())
         existing = checkpoint.steps(self.ckpt_dir)
         if not self.control.resume:
             if existing:
-                raise ValueError(f"{self.ckpt_dir} already holds checkpoints {existing}; "
-                                 "pass --resume to continue or choose another --out")
+                raise SettingError(f"{SettingError.text(self.ckpt_dir)} already holds checkpoints {existing}; "
+                                   "pass {0} to continue or choose another {1}", "resume", "out")
             atomic_write_json(os.path.join(self.out, "config.json"), self.metadata)
             atomic_write_json(os.path.join(self.out, "provenance.json"), provenance())
             return state
         if not existing:
-            raise ValueError(f"--resume: no checkpoint found in {self.ckpt_dir}")
+            raise SettingError(f"{{0}}: no checkpoint found in {SettingError.text(self.ckpt_dir)}", "resume")
         state, _ = checkpoint.restore(self.ckpt_dir, state, self.metadata, upgrade=metadata_format.upgrade)
         return self.place(state)
 
@@ -258,7 +249,7 @@ class TrainingRun:
         last = {"status": "done", "updates": update}
         self.final_state = state
         if c.resume and update >= cfg.num_updates:
-            print(f"--resume: the run in {self.out} is already finished ({update * cfg.batch_size} environment "
+            print(f"resume: the run in {self.out} is already finished ({update * cfg.batch_size} environment "
                   f"steps, {update} updates; its last checkpoint is in {self.ckpt_dir}); nothing to train",
                   file=sys.stderr)
         while update < cfg.num_updates:
@@ -304,7 +295,7 @@ class TrainingRun:
             w.close()
         return dict(last, status="done")
 
-    def _updates(self, state, n: int, bar):
+    def _updates(self, state: Any, n: int, bar: Any) -> tuple[Any, Any]:
         """``n`` updates; metrics ``[n]`` (``[seeds, n]`` with several seeds)."""
         if self.control.layout == "scan":
             state, metrics = self.trainer.run(state, n)

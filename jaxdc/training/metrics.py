@@ -5,6 +5,8 @@ from __future__ import annotations
 import csv
 import io
 import os
+from collections.abc import Sequence
+from typing import Any
 
 from jaxdc.io import atomic_write
 
@@ -17,7 +19,7 @@ def read_rows(path: str, max_updates: int) -> list[dict]:
         return [r for r in csv.DictReader(f) if int(r["updates"]) <= max_updates]
 
 
-def write_rows(path: str, rows: list[dict], fields) -> None:
+def write_rows(path: str, rows: list[dict], fields: Sequence[str]) -> None:
     """Write ``rows`` with the columns ``fields`` to ``path`` atomically."""
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=fields, restval="", extrasaction="ignore")
@@ -26,7 +28,7 @@ def write_rows(path: str, rows: list[dict], fields) -> None:
     atomic_write(path, buf.getvalue())
 
 
-def tensorboard_writer(folder: str | None):
+def tensorboard_writer(folder: str | None) -> Any:
     """A tensorboardX ``SummaryWriter`` into ``folder`` (``None``: only check the import), or a clear error
     naming the extra to install."""
     try:

@@ -1,4 +1,5 @@
-"""jaxdc.training.configs: named configurations and a run's own config.json as train.dcp / train.dcg flags."""
+"""jaxdc.training.presets and --config: named configurations and a run's own config.json as train.dcp / train.dcg
+defaults (flags given override them)."""
 
 import json
 
@@ -6,7 +7,8 @@ import pytest
 
 from cli_checks import refused
 from jaxdc.cli import train_dcg, train_dcp
-from jaxdc.training import configs
+from jaxdc.cli.train_common import parse_with_config
+from jaxdc.training import dcg, dcp, presets
 from jaxdc.training.dcg import make_env as dcg_env
 from jaxdc.training.dcg import run_metadata as dcg_metadata
 from jaxdc.training.dcp import run_metadata as dcp_metadata
@@ -14,18 +16,17 @@ from jaxdc.training.dcp import run_metadata as dcp_metadata
 
 def _settle(module, argv, problem):
     parser = module.build_parser()
-    return module.settle(parser.parse_args(configs.expand(argv, problem)))
+    from_metadata = (dcg if problem == "dcg" else dcp).settings_from_metadata
+    return module.settle(parse_with_config(parser, argv, problem, from_metadata))
 
 
 def test_every_preset_is_a_named_config_of_its_problem():
-    from jaxdc.training.ship import DCG_STRONG, EVERY
-
-    assert set(configs.CONFIGS) == set(EVERY)
-    assert set(configs.names("dcg")) == set(DCG_STRONG) and "enn_ppo" in configs.names("dcp")
+    assert set(presets.names("dcg")) == set(presets.DCG_STRONG) and "enn_ppo" in presets.names("dcp")
+    assert set(presets.names("dcp")) == set(presets.ALL)
 
 
 def test_a_named_config_settles_like_its_flags_and_given_flags_override():
-    flags = list(configs.CONFIGS["enn_ppo"].flags)
+    flags = presets.EVERY["enn_ppo"].flags()
     assert _settle(train_dcp, ["--config", "enn_ppo"], "dcp") == _settle(train_dcp, flags, "dcp")
     settings, control = _settle(train_dcp, ["--config=enn_ppo", "--lr", "1e-3", "--seed", "4"], "dcp")
     assert settings.config.lr == 1e-3 and control.seeds == (4,) and settings.config.clip_eps == 0.2
@@ -83,6 +84,25 @@ def test_bad_configs_are_refused(tmp_path, capsys):
                          ('{"net": "enn", "risk": true, "algorithm": {}}', "risk")):
         bad.write_text(text)
         refused(train_dcp.main, ["--config", str(bad)], capsys, needle)
-    # a hostile value goes through the flag's own check
+    # a hostile value is refused, naming the setting
     bad.write_text(json.dumps({"net": "enn", "algorithm": {"lr": -1.0}}))
-    refused(train_dcp.main, ["--config", str(bad)], capsys, "--lr")
+    refused(train_dcp.main, ["--config", str(bad)], capsys, "lr (learning rate)")
+    bad.write_text(json.dumps({"net": "enn", "grid_size": 3, "max_steps": 10, "algorithm": {"gae_lambda": 2.0}}))
+    refused(train_dcp.main, ["--config", str(bad)], capsys, "--gae-lambda")  # through the flag's own check
+    bad.write_text(json.dumps({"net": "vnn", "problem": "dcg", "strategies": ["nope"], "algorithm": {}}))
+    refused(train_dcg.main, ["--config", str(bad)], capsys, "nope")
+
+
+def test_library_errors_name_fields_and_the_command_line_names_flags(capsys, tmp_path):
+    from jaxdc.agents.a2c import A2CConfig
+    from jaxdc.training.dcg import DCGRun, DCGSettings
+    from jaxdc.training.fields import SettingError
+    from jaxdc.training.loop import RunControl
+
+    settings = DCGSettings(net="vnn", config=A2CConfig(total_steps=64, num_envs=2, t_max=4, aux_lr=1e-3))
+    with pytest.raises(SettingError) as e:
+        DCGRun(settings, RunControl(out="unused"))
+    assert str(e.value).startswith("aux_lr sets OMN's learning rate and applies to net omn_conn only")
+    assert e.value.render().startswith("--omn-lr sets OMN's learning rate and applies to --net omn_conn only")
+    refused(train_dcg.main, ["--net", "vnn", "--omn-lr", "1e-3", "--steps", "64", "--envs", "2", "--t-max", "4",
+                             "--out", str(tmp_path / "run")], capsys, "--omn-lr sets OMN's learning rate and applies to --net omn_conn only, not 'vnn'")

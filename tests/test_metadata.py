@@ -1,4 +1,4 @@
-"""jaxdc.training.metadata: the format of run and parameter-file metadata, and the one upgrade of older files."""
+"""jaxdc.metadata: the format of run and parameter-file metadata, and the one upgrade of older files."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from jaxdc import pretrained
 from jaxdc.agents.a2c import A2CConfig
 from jaxdc.agents.nstep_q import QConfig
-from jaxdc.training import metadata
+from jaxdc import metadata
 
 
 def test_format_1_a2c_run_gets_every_option_and_setting():

@@ -1,0 +1,88 @@
+"""The networks of each problem by name: one registry per problem, read by loading, training and metadata.
+
+Each entry is a :class:`NetEntry`: the network's class and the algorithm that
+trains it (``"a2c"``: synchronous A2C, Algorithm 10; ``"nstep_q"``: n-step
+Q-learning, section 4.5.5). Whether a network reads the heuristics of section
+4.4.3 or has the opponent-action head of section 5.4 is its class attribute
+(``uses_heuristics``, ``has_aux``), read through the entry. The registries
+know no problem module: they are keyed by the problem's name (``"dcp"``,
+``"dcg"``), and a new variant adds its networks here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import flax.linen as nn
+
+from jaxdc.core.validate import is_int
+from jaxdc.nets.cnn import CNN
+from jaxdc.nets.emnn import EMNN
+from jaxdc.nets.enn import ENN, HeuristicNet
+from jaxdc.nets.eqn import EQN
+from jaxdc.nets.linear import Linear
+from jaxdc.nets.omn_conn import OMNCoNN
+from jaxdc.nets.vnn import IMNN, VNN
+
+#: The algorithms a registered network trains with.
+A2C, NSTEP_Q = "a2c", "nstep_q"
+
+
+@dataclasses.dataclass(frozen=True)
+class NetEntry:
+    """One registered network: its flax class and the algorithm that trains it."""
+
+    cls: type[nn.Module]
+    algorithm: str = A2C
+    #: Whether the constructor takes ``history`` (the DCG networks that read ``k`` previous agent planes).
+    takes_history: bool = False
+
+    @property
+    def uses_heuristics(self) -> bool:
+        """Whether the network reads the heuristics of section 4.4.3 (a trainer computes them only then)."""
+        return bool(getattr(self.cls, "uses_heuristics"))
+
+    @property
+    def has_aux(self) -> bool:
+        """Whether the network has the opponent-action head (EMNN, OMN + CoNN; section 5.4)."""
+        return bool(getattr(self.cls, "has_aux"))
+
+
+#: The DCP's networks (section 4.5), in the order of the thesis' tables: ENN, the linear learner, the CNN, EQN.
+DCP_NETS: dict[str, NetEntry] = {"enn": NetEntry(ENN), "linear": NetEntry(Linear), "cnn": NetEntry(CNN),
+                                 "eqn": NetEntry(EQN, NSTEP_Q)}
+#: The DCG's networks (section 5.4), in the order of the thesis' figures.
+DCG_NETS: dict[str, NetEntry] = {"vnn": NetEntry(VNN), "imnn": NetEntry(IMNN, takes_history=True),
+                                 "emnn": NetEntry(EMNN, takes_history=True),
+                                 "omn_conn": NetEntry(OMNCoNN, takes_history=True)}
+#: The registry of each problem.
+REGISTRIES: dict[str, dict[str, NetEntry]] = {"dcp": DCP_NETS, "dcg": DCG_NETS}
+
+
+def names(problem: str) -> tuple[str, ...]:
+    """The names of ``problem``'s networks, in registry order."""
+    return tuple(REGISTRIES[problem])
+
+
+def entry(problem: str, name: str) -> NetEntry:
+    """The entry of network ``name`` of ``problem``; ``ValueError`` listing the names for an unknown one."""
+    nets = REGISTRIES[problem]
+    if name not in nets:
+        raise ValueError(f"net must be one of {tuple(nets)}, got {name!r}")
+    return nets[name]
+
+
+def build(problem: str, name: str, history: int = 10, num_heuristics: int = 10, num_actions: int = 9) -> nn.Module:
+    """The flax module of network ``name`` of ``problem``.
+
+    A DCG network that reads history planes needs ``history >= 1`` (section 5.5.2: ``k = 10``); VNN and the DCP's
+    networks ignore it. ENN and EQN combine ``num_heuristics`` heuristics (section 4.4.3).
+    """
+    e = entry(problem, name)
+    if e.takes_history:
+        if not is_int(history, numpy=False) or history < 1:
+            raise ValueError(f"history (k) must be an int >= 1 for {name}, got {history!r}")
+        return e.cls(num_actions, history=history)
+    if issubclass(e.cls, HeuristicNet):  # ENN, EQN
+        return e.cls(num_heuristics, num_actions)
+    return e.cls(num_actions)

@@ -1,0 +1,132 @@
+"""The named training configurations: the recipes of the shipped networks, as typed records of settings fields.
+
+A :class:`Preset` holds the fields a recipe sets (the names of
+:class:`~jaxdc.training.dcp.DCPSettings`, :class:`~jaxdc.training.dcg.DCGSettings`,
+their algorithm config and the run's ``eval_every``); a field left ``None``
+takes the command line's default. ``train.dcp --config NAME`` /
+``train.dcg --config NAME`` start from one (the command line turns its
+fields into parser defaults, so flags given override them), and
+``train.ship`` (:mod:`jaxdc.training.ship`) trains them: one source for both.
+:meth:`Preset.flags` renders a preset as the flags recorded in the shipped
+metadata's ``"command"``.
+
+The DCP's shipped networks (section 4.5) are trained with the thesis'
+hyper-parameters, in the setting of the table each fills (the ENN of Table
+4.3 also plays Tables 4.6 and 4.8; Tables 4.4, 4.5 and 4.7 have their own
+ENNs; the linear learner and EQN are trained in the setting of Table 4.3).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from jaxdc.training.fields import flags as render_flags
+
+
+@dataclasses.dataclass(frozen=True)
+class Preset:
+    """A named configuration: its problem, what it trains (the tables or figures it fills) and the settings fields
+    it sets (``None``: not set). The field order is the order of the rendered flags."""
+
+    problem: str  # "dcp" or "dcg"
+    description: str
+    net: str
+    risk: str | None = None
+    total_reward: int | None = None
+    energy: tuple[float, float] | float | None = None
+    min_total_reward: int | None = None
+    total_steps: int | None = None
+    num_envs: int | None = None
+    t_max: int | None = None
+    lr: float | None = None
+    clip_eps: float | None = None
+    epochs: int | None = None
+    minibatches: int | None = None
+    gae_lambda: float | None = None
+    normalize_advantages: bool | None = None
+    reset_slots: int | None = None
+    eval_every: int | None = None
+    eval_episodes: int | None = None
+    greedy_eval: bool | None = None
+    reward_area: int | None = None
+    min_reward_area: int | None = None
+
+    def fields(self) -> dict[str, Any]:
+        """``{field: value}`` of the settings the preset sets, in order."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+                if f.name not in ("problem", "description") and getattr(self, f.name) is not None}
+
+    def flags(self) -> list[str]:
+        """The preset as ``train.<problem>`` flags (``--net enn --risk high --energy 8 16 ...``)."""
+        return render_flags(self.fields().items())
+
+
+def _dcp(description: str, net: str, risk: str = "high", energy: tuple[float, float] = (8.0, 16.0),
+         **fields: Any) -> Preset:
+    return Preset("dcp", description, net, risk=risk, energy=energy, **fields)
+
+
+#: The shipped DCP networks of the thesis (``jaxdc/assets/dcp``): name -> its preset (the tables it fills).
+SHIPPED = {
+    "enn": _dcp("4.3, 4.6, 4.8", "enn"),
+    "enn_medium": _dcp("4.4", "enn", risk="medium"),
+    "enn_low": _dcp("4.5", "enn", risk="low"),
+    "enn_energy16_32": _dcp("4.7", "enn", energy=(16.0, 32.0)),
+    "linear": _dcp("4.9", "linear"),
+    "eqn": _dcp("4.10", "eqn"),
+}
+#: Beyond the thesis, shipped: the best learners of the two goals of docs/learning.md. ``enn_long``: the
+#: faithful A2C in Table 4.3's setting, trained 16M steps instead of 1M (goal: >= 10% above the thesis' ENN
+#: reward). ``enn_single_item``: the best single-item learner (goal: >= 97% of the exact optimum of Table
+#: 4.8's setting, ``jaxdc/dcp/optimal.py``); the thesis reuses the Table 4.3 ENN there, this one is trained on
+#: the single-item setting itself and evaluated greedily (``eval.dcp --greedy``). ``enn_mix``: one ENN at the
+#: thesis' 1M steps for Tables 4.3, 4.6 and 4.8, trained on episodes of 1..30 units (``min_total_reward=1``)
+#: with Adam at 3e-4 (docs/learning.md, "At the thesis' 1M steps").
+BEYOND = {
+    "enn_long": _dcp("4.3 (beyond the thesis: 16M steps)", "enn", total_steps=16_000_000, eval_every=2_000_000,
+                     eval_episodes=2000),
+    "enn_single_item": _dcp("4.8 (beyond the thesis: trained on one item)", "enn", total_reward=1,
+                            total_steps=4_000_000, eval_every=1_000_000, eval_episodes=2000, greedy_eval=True),
+    "enn_mix": _dcp("4.3, 4.6, 4.8 (beyond the thesis: 1..30 units per training episode, lr 3e-4)", "enn",
+                    min_total_reward=1, lr=3e-4, eval_episodes=2000),
+}
+#: The PPO-style options of ``train.dcp`` (docs/learning.md, "The PPO-style option at 1M steps"), the same
+#: options for every table: the best learners at the thesis' 1M steps.
+PPO: dict[str, Any] = {"num_envs": 32, "t_max": 32, "lr": 3e-4, "clip_eps": 0.2, "epochs": 4, "minibatches": 4, "gae_lambda": 0.95,
+       "normalize_advantages": True, "reset_slots": 4, "eval_every": 1_000_000, "eval_episodes": 4000}
+BEYOND.update({  # the setting of the faithful ENN of the same tables, then the PPO options
+    "enn_ppo": _dcp("4.3, 4.6 (beyond the thesis: the PPO-style option)", "enn", **PPO),
+    "enn_ppo_low": _dcp("4.5 (beyond the thesis: the PPO-style option)", "enn", risk="low", **PPO),
+    "enn_ppo_energy16_32": _dcp("4.7 (beyond the thesis: the PPO-style option)", "enn", energy=(16.0, 32.0), **PPO),
+    "enn_ppo_mix": _dcp("4.3, 4.6, 4.8 (beyond the thesis: the PPO-style option, 1..30 units per training episode)",
+                        "enn", min_total_reward=1, **PPO),
+})
+#: The strong DCG collectors (docs/dcg.md, "Strong collectors"; beyond the thesis): the PPO-style options at
+#: lr 1e-3, 3M steps (``NET_strong``) and the same recipe at the thesis' 1M steps (``NET_strong_1m``, Fig. 5.6).
+DCG_STRONG_RECIPE: dict[str, Any] = {**PPO, "lr": 1e-3, "eval_episodes": 2000}
+#: The strong DCG collectors: ``NET_strong`` (3M steps) and ``NET_strong_1m`` (1M) for each network, then
+#: ``omn_conn_strong_areas``.
+DCG_STRONG = {f"{net}_strong{tag}": Preset("dcg", figures, net, total_steps=steps, **DCG_STRONG_RECIPE)
+              for net in ("vnn", "imnn", "emnn", "omn_conn")
+              for tag, steps, figures in (("", 3_000_000, "5.11, 5.16 (beyond the thesis: the strong recipe, 3M)"),
+                                          ("_1m", 1_000_000, "5.6 (beyond the thesis: the strong recipe, 1M)"))}
+#: One OMN+CoNN for every reward-area size (Fig. 5.11; beyond the thesis): the recipe for 5M steps on one item in
+#: a square whose size each episode draws from 1..4 (``min_reward_area``).
+DCG_STRONG["omn_conn_strong_areas"] = Preset(
+    "dcg", "5.11 (beyond the thesis: one network for reward-area sizes 1-4)", "omn_conn", total_steps=5_000_000,
+    **DCG_STRONG_RECIPE, reward_area=4, min_reward_area=1)
+#: The shipped DCP presets (exported by ``train.ship``).
+ALL = {**SHIPPED, **BEYOND}
+#: Every named configuration.
+EVERY = {**ALL, **DCG_STRONG}
+
+
+def names(problem: str) -> list[str]:
+    """The names of ``problem``'s configurations."""
+    return [n for n, p in EVERY.items() if p.problem == problem]
+
+
+def listing(problem: str) -> str:
+    """One line per named configuration of ``problem``: its name and what it trains."""
+    return "\n".join(f"{n:22s} {EVERY[n].description}" for n in names(problem))
