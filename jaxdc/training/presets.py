@@ -36,6 +36,10 @@ class Preset:
     total_reward: int | None = None
     energy: tuple[float, float] | float | None = None
     min_total_reward: int | None = None
+    observation: str | None = None
+    risk_maps: str | None = None
+    map_seeds: tuple[int, int] | None = None
+    energy_range: tuple[float, float] | None = None
     total_steps: int | None = None
     num_envs: int | None = None
     t_max: int | None = None
@@ -101,6 +105,13 @@ BEYOND.update({  # the setting of the faithful ENN of the same tables, then the 
     "enn_ppo_energy16_32": _dcp("4.7 (beyond the thesis: the PPO-style option)", "enn", energy=(16.0, 32.0), **PPO),
     "enn_ppo_mix": _dcp("4.3, 4.6, 4.8 (beyond the thesis: the PPO-style option, 1..30 units per training episode)",
                         "enn", min_total_reward=1, **PPO),
+    # One network for every map and budget (docs/generalisation.md): each training episode draws its risk map from
+    # the first 1,024 maps of the 'mix' generator (never a held-out seed) and its maximum energy from 8..48
+    # (initial: half), and the network reads the general observation (risk map and budget planes).
+    "enn_general": _dcp("4.3-4.8 and unseen maps and budgets (beyond the thesis: per-episode maps and budgets, the "
+                        "general observation, the PPO-style option, 4M steps)", "enn", min_total_reward=1,
+                        observation="general", risk_maps="mix", map_seeds=(0, 1024), energy_range=(8.0, 48.0),
+                        **{**PPO, "total_steps": 4_000_000, "eval_every": 500_000, "eval_episodes": 2000}),
 })
 #: The strong DCG collectors (docs/dcg.md, "Strong collectors"; beyond the thesis): the PPO-style options at
 #: lr 1e-3, 3M steps (``NET_strong``) and the same recipe at the thesis' 1M steps (``NET_strong_1m``, Fig. 5.6).
