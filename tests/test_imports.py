@@ -35,13 +35,22 @@ def _resolve(name: str) -> str | None:
     return name or None
 
 
+def _is_type_checking(test: ast.expr) -> bool:
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
 def _imports(module: str) -> set[str]:
     """The jaxdc modules ``module`` imports (``from jaxdc.x import y`` is ``jaxdc.x.y`` when that is a module)."""
     path = MODULES[module]
     tree = ast.parse(open(path).read(), path)
     package = module if path.endswith("__init__.py") else module.rpartition(".")[0]
     out = set()
+    typing_only = {id(n) for block in ast.walk(tree) if isinstance(block, ast.If) and _is_type_checking(block.test)
+                   for stmt in block.body for n in ast.walk(stmt)}
     for node in ast.walk(tree):
+        if id(node) in typing_only:  # `if TYPE_CHECKING:` imports are for the type checker, never run
+            continue
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom):

@@ -54,6 +54,8 @@ def add_parser(sub, prog: str) -> argparse.ArgumentParser:
     p.add_argument("--greedy", action="store_true", help="play the network's argmax instead of sampling")
     p.add_argument("--no-optimum", action="store_true", help="skip the one-item rows against the exact optimum")
     p.add_argument("--no-specialist", action="store_true", help="skip the shipped specialists")
+    p.add_argument("--no-thesis", action="store_true",
+                   help="skip the network in each thesis table's setting against that table's ENN")
     p.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT})")
     p.add_argument("--json", action="store_true", help="print the JSON instead of the markdown")
     return p
@@ -102,9 +104,11 @@ def main(args: argparse.Namespace, prog: str, argv=None) -> int:
 
     rows = gen.run(learned, grid, args.total_reward, args.episodes, args.seed, not args.no_optimum,
                    None if args.no_specialist else specialist_finder(args.total_reward), args.greedy, progress)
+    thesis = [] if args.no_thesis else gen.thesis_tables(learned, args.episodes, args.seed, args.greedy)
     payload = {"network": learned.source, "command": command, "training_range": list(gen.training_range(
-        learned.metadata)), "rows": rows, "summary": gen.summarise(rows), "provenance": provenance(argv)}
-    text = gen.markdown(rows, command, learned.source)
+        learned.metadata)), "rows": rows, "summary": gen.summarise(rows), "thesis_tables": thesis,
+        "provenance": provenance(argv)}
+    text = gen.markdown(rows, command, learned.source) + ("\n" + gen.thesis_markdown(thesis) if thesis else "")
     files = {os.path.join(out, "generalisation.json"): json_text(payload),
              os.path.join(out, "generalisation.md"): text}
     files.update(pictures(rows, learned.metadata, out))

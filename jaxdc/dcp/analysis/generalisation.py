@@ -175,6 +175,40 @@ def heat_values(rows: list[dict], key: str = "ratio") -> tuple[list[list[float |
     return values, maps, budgets
 
 
+#: The thesis tables with a per-table ENN (section 4.5): the settings one general network should cover.
+THESIS_TABLES = ("4.3", "4.4", "4.5", "4.6", "4.7", "4.8")
+
+
+def thesis_tables(learned, episodes: int = 10_000, seed: int = 0, greedy: bool = False,
+                  tables: tuple[str, ...] = THESIS_TABLES) -> list[dict]:
+    """The network in the setting of each thesis table, against that table's ENN row (the thesis' per-table
+    network): ``{table, risk, total_reward, energy, net {mean, se}, thesis_enn, z}`` with ``z`` the difference
+    in standard errors of our mean (positive: above the thesis)."""
+    from jaxdc.dcp.analysis.tables import TABLES
+
+    rows = []
+    for name in tables:
+        spec = TABLES[name]
+        env = DCP(total_reward=spec.total_reward, observation=learned.observation)
+        params = instances.fixed_instance(env, spec.risk, spec.energy)
+        m, se = _mean_se(evaluate_learned(env, params, learned, jax.random.PRNGKey(seed), episodes, greedy))
+        thesis = spec.rows["enn"][0]
+        rows.append({"table": name, "risk": spec.risk, "total_reward": spec.total_reward,
+                     "energy": [float(e) for e in spec.energy], "net": {"mean": m, "se": se},
+                     "thesis_enn": thesis, "z": (m - thesis) / se if se > 0 else None})
+    return rows
+
+
+def thesis_markdown(rows: list[dict]) -> str:
+    """The thesis-table comparison as markdown."""
+    lines = ["| table | setting | thesis ENN | this network | Δ / SE |", "|---|---|---:|---:|---:|"]
+    for r in rows:
+        lines.append(f"| {r['table']} | {r['risk']} risk, {r['total_reward']} items, "
+                     f"{r['energy'][0]:g}/{r['energy'][1]:g} | {r['thesis_enn']:.2f} | "
+                     f"{r['net']['mean']:.3f} ± {r['net']['se']:.3f} | {_f(r['z'], '+.1f')} |")
+    return "\n".join(lines) + "\n"
+
+
 def _f(x: float | None, fmt: str = ".2f") -> str:
     return "n/a" if x is None else format(x, fmt)
 
@@ -199,5 +233,5 @@ def markdown(rows: list[dict], command: str, network: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["BUDGETS", "SOURCES", "Setting", "evaluate_setting", "heat_values", "markdown", "one_item", "run", "settings",
-           "summarise", "training_range"]
+__all__ = ["BUDGETS", "SOURCES", "THESIS_TABLES", "Setting", "evaluate_setting", "heat_values", "markdown", "one_item", "run", "settings",
+           "summarise", "thesis_markdown", "thesis_tables", "training_range"]
