@@ -254,10 +254,13 @@ def _diff(a, b, where="", out=None, limit=8):
 
 
 def _recorded(path: str) -> dict:
-    """A recorded case without its provenance (which differs between any two recordings)."""
+    """A recorded case without its provenance (which differs between any two recordings): the recording's, and
+    the ``provenance.json`` a training run writes into its folder (checkout path, git commit)."""
     with open(path) as f:
         case = json.load(f)
     case.pop("provenance", None)
+    if isinstance(case.get("files"), dict):
+        case["files"] = {k: v for k, v in case["files"].items() if os.path.basename(k) != "provenance.json"}
     return case
 
 

@@ -56,6 +56,8 @@ def add_parser(sub, prog: str) -> argparse.ArgumentParser:
     p.add_argument("--no-specialist", action="store_true", help="skip the shipped specialists")
     p.add_argument("--no-thesis", action="store_true",
                    help="skip the network in each thesis table's setting against that table's ENN")
+    p.add_argument("--thesis-episodes", type=positive_int("--thesis-episodes"), default=10_000,
+                   help="episodes of each thesis-table setting (default 10,000, as the thesis)")
     p.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT})")
     p.add_argument("--json", action="store_true", help="print the JSON instead of the markdown")
     return p
@@ -104,7 +106,7 @@ def main(args: argparse.Namespace, prog: str, argv=None) -> int:
 
     rows = gen.run(learned, grid, args.total_reward, args.episodes, args.seed, not args.no_optimum,
                    None if args.no_specialist else specialist_finder(args.total_reward), args.greedy, progress)
-    thesis = [] if args.no_thesis else gen.thesis_tables(learned, args.episodes, args.seed, args.greedy)
+    thesis = [] if args.no_thesis else gen.thesis_tables(learned, args.thesis_episodes, args.seed, args.greedy)
     payload = {"network": learned.source, "command": command, "training_range": list(gen.training_range(
         learned.metadata)), "rows": rows, "summary": gen.summarise(rows), "thesis_tables": thesis,
         "provenance": provenance(argv)}

@@ -48,6 +48,16 @@ def _check_risk_range(owner: str, low: float, high: float) -> tuple[float, float
     return low, high
 
 
+def _check_skewed(owner: str, low: float, high: float, power: float) -> None:
+    _check_risk_range(owner, low, high)
+    check_float(f"{owner}.power", power, 0.0, 100.0, low_open=True)
+
+
+def _skewed(key: jax.Array, shape: tuple[int, ...], low: float, high: float, power: float) -> jax.Array:
+    """``low + (high - low) * u**power`` for ``u`` uniform on ``[0, 1]``: risks skewed towards ``low``."""
+    return low + (high - low) * jax.random.uniform(key, shape) ** power
+
+
 def _with_base(risk: jax.Array) -> jax.Array:
     """``risk`` (float32) with the base cell ``(0, 0)`` at 0."""
     return risk.astype(jnp.float32).at[0, 0].set(0.0)
@@ -105,12 +115,10 @@ class Rings(RiskGenerator):
     name = "rings"
 
     def __post_init__(self) -> None:
-        _check_risk_range("Rings", self.low, self.high)
-        check_float("Rings.power", self.power, 0.0, 100.0, low_open=True)
+        _check_skewed("Rings", self.low, self.high, self.power)
 
     def sample(self, key: jax.Array, grid_size: int) -> jax.Array:
-        u = jax.random.uniform(key, (4,)) ** self.power
-        rho = jnp.sort(self.low + (self.high - self.low) * u)
+        rho = jnp.sort(_skewed(key, (4,), self.low, self.high, self.power))
         return _with_base(rho[jnp.asarray(grid.ring_index(grid_size))])
 
 
@@ -125,12 +133,10 @@ class UniformRisk(RiskGenerator):
     name = "uniform"
 
     def __post_init__(self) -> None:
-        _check_risk_range("UniformRisk", self.low, self.high)
-        check_float("UniformRisk.power", self.power, 0.0, 100.0, low_open=True)
+        _check_skewed("UniformRisk", self.low, self.high, self.power)
 
     def sample(self, key: jax.Array, grid_size: int) -> jax.Array:
-        u = jax.random.uniform(key, (grid_size, grid_size)) ** self.power
-        return _with_base(self.low + (self.high - self.low) * u)
+        return _with_base(_skewed(key, (grid_size, grid_size), self.low, self.high, self.power))
 
 
 @dataclasses.dataclass(frozen=True)

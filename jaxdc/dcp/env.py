@@ -22,6 +22,7 @@ stacked channels-last as ``[N, N, 2]``: ``M^item`` (item rewards) and
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import jax
@@ -242,6 +243,7 @@ class DCP(Environment[EnvState, EnvParams]):
 
     def _draw_instance(self, key, params: EnvParams):
         """``(map_id, init_energy, max_energy)`` of a new episode with per-episode instances."""
+        assert params.maps is not None and params.energy_range is not None and params.init_fraction is not None
         k_map, k_energy = jax.random.split(key)
         map_id = uniform_index(k_map, (), params.maps.shape[0])
         low, high = params.energy_range[0], params.energy_range[1]
@@ -317,7 +319,8 @@ class DCP(Environment[EnvState, EnvParams]):
         ).astype(jnp.int32)
         terminated = (outcome != RUNNING) & (outcome != TRUNCATED)
         truncated = outcome == TRUNCATED
-        new_state = state.replace(
+        new_state = dataclasses.replace(
+            state,
             pos=pos,
             energy=energy,
             items=items,
@@ -351,7 +354,8 @@ class DCP(Environment[EnvState, EnvParams]):
     # -- text rendering (outside jit) ----------------------------------------------------
     def render_ansi(self, state: EnvState, params: EnvParams) -> str:
         """Text grid (:func:`render_ansi`): ``A`` agent, ``B`` base, item digits, ``.`` empty, then a status line."""
-        return render_ansi(state, params if state.max_energy is None else params.replace(max_energy=state.max_energy))
+        shown = params if state.max_energy is None else dataclasses.replace(params, max_energy=state.max_energy)
+        return render_ansi(state, shown)
 
     def scene(self, state: EnvState, params: EnvParams) -> Scene:
         """The frame of section 4.3 (:func:`jaxdc.viewer.render_frame`): the risk map with its values (Fig. 4.1b),

@@ -21,6 +21,7 @@ network is evaluated on a thesis map exactly like any other.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Callable
 
 import jax
@@ -78,10 +79,14 @@ def check_energy_range(energy_range) -> tuple[float, float]:
     return low, high
 
 
+#: The tables of a batch of maps, compiled once per batch shape.
+_batched_tables = jax.jit(jax.vmap(safest_paths))
+
+
 def compute_tables(maps: np.ndarray) -> PathTable:
     """The safest-path table of every map, stacked: leaves ``[M, N^2, N^2]`` (computed ``TABLE_CHUNK`` at a time)."""
-    run = jax.jit(jax.vmap(safest_paths))
-    parts = [jax.device_get(run(jnp.asarray(maps[i:i + TABLE_CHUNK]))) for i in range(0, len(maps), TABLE_CHUNK)]
+    parts = [jax.device_get(_batched_tables(jnp.asarray(maps[i:i + TABLE_CHUNK])))
+             for i in range(0, len(maps), TABLE_CHUNK)]
     return jax.tree_util.tree_map(lambda *xs: jnp.asarray(np.concatenate(xs)), *parts)
 
 
@@ -102,7 +107,7 @@ def instance_params(env: DCP, maps, energy_range, init_fraction: float = 0.5, ma
     check_fits(table_bytes(arr.shape[0], env.grid_size), f"the safest-path tables of {arr.shape[0]} maps",
                "the number of maps")
     base = env.make_params(arr[0], (max(1.0, round(frac * high)), high), max_steps)
-    return base.replace(maps=jnp.asarray(arr), tables=compute_tables(arr),
+    return dataclasses.replace(base, maps=jnp.asarray(arr), tables=compute_tables(arr),
                         energy_range=jnp.asarray([low, high], jnp.float32), init_fraction=jnp.float32(frac))
 
 
@@ -128,7 +133,7 @@ def state_params(params: EnvParams, state) -> EnvParams:
     """``params`` with ``risk`` and the energies of ``state``'s episode (what the planners and heuristics read)."""
     if params.maps is None:
         return params
-    return params.replace(risk=params.maps[state.map_id], max_energy=state.max_energy)
+    return dataclasses.replace(params, risk=params.maps[state.map_id], max_energy=state.max_energy)
 
 
 def batched_heuristics(params: EnvParams, cfg: PlannerConfig = PlannerConfig()) -> Callable:

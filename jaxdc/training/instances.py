@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from jaxdc.core import generators
 from jaxdc.core.validate import check_float, check_int
 from jaxdc.dcp import instances
@@ -58,7 +60,7 @@ def training_params(s: Any, env: DCP) -> EnvParams:
         maps = generators.make_maps(generators.generator(s.risk_maps), generators.SeedSet(*s.map_seeds),
                                     env.grid_size)
     else:
-        maps = env.make_params(s.risk, tuple(s.energy), s.max_steps).risk[None]
+        maps = np.asarray(env.make_params(s.risk, tuple(s.energy), s.max_steps).risk)[None]
     energy_range = s.energy_range if s.energy_range is not None else (s.energy[1], s.energy[1])
     fraction = s.init_fraction if s.energy_range is not None else s.energy[0] / s.energy[1]
     return instances.instance_params(env, maps, energy_range, fraction, s.max_steps)

@@ -27,7 +27,8 @@ def heatmap_png(values: Sequence[Sequence[float | None]], rows: Sequence[str], c
         raise ValueError(f"values must be {len(rows)} x {len(cols)}, got {data.shape}")
     finite = data[np.isfinite(data)]
     spread = max(0.05, float(np.max(np.abs(finite - centre)))) if finite.size else 0.05
-    fig = Figure(figsize=(1.2 + 0.9 * len(cols), 1.0 + 0.42 * len(rows)))
+    label_width = 0.065 * max((len(r) for r in rows), default=0)
+    fig = Figure(figsize=(2.0 + label_width + 0.9 * len(cols), 1.4 + 0.42 * len(rows)), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.subplots()
     im = ax.imshow(np.ma.masked_invalid(data), cmap="RdYlGn", aspect="auto",
@@ -43,7 +44,6 @@ def heatmap_png(values: Sequence[Sequence[float | None]], rows: Sequence[str], c
     ax.set_yticklabels(rows, fontsize=7)
     ax.set_title(title, fontsize=8)
     fig.colorbar(im, ax=ax, label=label)
-    fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     return buf.getvalue()
