@@ -171,7 +171,8 @@ def test_train_throughput_partial_rows_record_provenance(tmp_path):
 
 
 def test_train_throughput_ppo_row(tmp_path, capsys):
-    """The PPO-style row: the options of docs/learning.md (4 x 4 Adam steps per update), only when asked for in --quick."""
+    """The PPO-style row: the options of docs/learning.md (4 x 4 Adam steps per update), only when asked for in
+    --quick."""
     from benchmarks import train_throughput as tt
 
     assert tt.parse_args(["--quick"]).ppo_envs == [] and tt.parse_args([]).ppo_envs == [32]

@@ -1,4 +1,5 @@
-"""`python -m eval.dcg` (jaxdc.cli.eval_dcg): JSON output, clear errors, determinism, the figure and render subcommands (tiny games)."""
+"""`python -m eval.dcg` (jaxdc.cli.eval_dcg): JSON output, clear errors, determinism, the figure and render
+subcommands (tiny games)."""
 
 from __future__ import annotations
 

@@ -182,7 +182,8 @@ def test_table_results_markdown_and_payload():
     assert list(payload) == ["table", "caption", "command", "thesis", "ours", "incr", "learned", "best"]
     assert payload["thesis"]["enn"] == list(spec.rows["enn"])
     assert payload["best"] is None
-    assert payload["learned"] == {"net": "enn", "row": "enn", "source": "fake.msgpack", "trained": _FakeLearned().setting(),
+    assert payload["learned"] == {"net": "enn", "row": "enn", "source": "fake.msgpack",
+                                  "trained": _FakeLearned().setting(),
                                   "steps": 5, "seed": 2, "command": "python -m train.dcp"}
     assert table_payload(spec, "cmd", rows, {}, None)["learned"] is None
 

@@ -75,7 +75,8 @@ def test_emnn_reports_opponent_accuracy_and_ships_loadable_parameters(emnn_run):
     params, meta = pretrained.load(os.path.join(emnn_run, "emnn.msgpack"), net="emnn", problem="dcg")
     assert meta["history"] == 2 and meta["alpha"] == 0.001 and meta["steps"] == 128 and meta["energy"] == 8.0
     assert meta["algorithm"]["aux_coef"] == 0.001 and meta["obs_history"] is True
-    assert meta["strategies"] == ["restricted"] and meta["command"].startswith("python -m train.dcg ") and "--net emnn" in meta["command"]
+    assert meta["strategies"] == ["restricted"] and meta["command"].startswith("python -m train.dcg ") \
+        and "--net emnn" in meta["command"]
     run = cli.Run(cli.build_parser().parse_args(TINY + ["--net", "emnn", "--steps", "128", "--out", emnn_run]))
     state, _ = checkpoint.restore(run.ckpt_dir, run.trainer.init(jax.random.PRNGKey(0)), run.metadata)
     for x, y in zip(jax.tree_util.tree_leaves(state.params), jax.tree_util.tree_leaves(params)):

@@ -211,7 +211,8 @@ def test_a_checkpoint_of_the_older_metadata_format_resumes(tmp_path):
 
 
 def test_config_json_of_a_run_retrains_it_exactly(finished_run, tmp_path):
-    """`--config RUN/config.json` (settings_from_metadata, as parser defaults) trains the same run again: the same final parameters."""
+    """`--config RUN/config.json` (settings_from_metadata, as parser defaults) trains the same run again: the same
+    final parameters."""
     out = str(tmp_path / "again")
     assert cli.main(["--config", os.path.join(finished_run, "config.json"), "--eval-every", "2048",
                      "--eval-episodes", "20", "--no-progress", "--out", out]) == 0

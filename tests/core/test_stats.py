@@ -16,4 +16,5 @@ def test_format_number_dashes_what_is_undefined():
     assert format_number(0.4567, 3) == "0.457" and format_number(12.0) == "12.00"
     assert format_number(None) == format_number(math.nan) == format_number(math.inf) == "—"
     assert format_number(None, missing="n/a") == "n/a"
-    assert format_number(2.5, 1, signed=True, suffix=" pp") == "+2.5 pp" and format_number(-2.5, 1, signed=True) == "-2.5"
+    assert format_number(2.5, 1, signed=True, suffix=" pp") == "+2.5 pp" \
+        and format_number(-2.5, 1, signed=True) == "-2.5"

@@ -37,17 +37,19 @@ def test_delta_se_and_verdicts():
 
 
 def test_anchor_is_githubs():
-    assert anchor("Table 4.3: High risk, total reward 30, energy 8/16") == "table-43-high-risk-total-reward-30-energy-816"
+    assert anchor("Table 4.3: High risk, total reward 30, energy 8/16") \
+        == "table-43-high-risk-total-reward-30-energy-816"
 
 
 def test_dcp_rows_give_navigators_faithful_and_best(tmp_path):
     _table(tmp_path)
     card = scorecard(str(tmp_path))
     # navigators: safe_reward +0.2 SE, safe_both -20 SE -> one of two off
-    assert "| DCP Table 4.3 | 2 navigators, reward | 1 of 2 within 3 SE (largest -20.0 SE, -8.3%) | — | 1 of 2 off |" in card
+    assert ("| DCP Table 4.3 | 2 navigators, reward | 1 of 2 within 3 SE (largest -20.0 SE, -8.3%) | — "
+            "| 1 of 2 off |") in card
     # learned: (12.88 - 13.16) / (7 / 100) = -4.0 SE; best (14.80 - 13.16) / 0.07 = +23.4 SE
-    assert "| enn reward 13.16 | 12.88 (-4.0 SE) | 14.80 (+23.4 SE): `enn_long`, 16M steps | faithful: below; best: above |" \
-        in card
+    assert ("| enn reward 13.16 | 12.88 (-4.0 SE) | 14.80 (+23.4 SE): `enn_long`, 16M steps "
+            "| faithful: below; best: above |") in card
     assert "(#table-43-high-risk-total-reward-30-energy-816) `python -m eval.dcp --table 4.3 --episodes 10000`" in card
 
 
@@ -56,8 +58,8 @@ def test_dcp_table_without_best_or_learner(tmp_path):
     assert "| 12.88 (-4.0 SE) | — | faithful: below |" in scorecard(str(tmp_path))
     _table(tmp_path, table="4.1", caption="tours", learned=None, best=None,
            thesis={"ng": [5.0, 1.0, None, None, None, None]}, ours={"ng": _summary(5.01)})
-    assert "| DCP Table 4.1 | 1 tour heuristics, reward | 1 of 1 within 3 SE (largest +1.0 SE, +0.2%) | — | reproduced |" \
-        in scorecard(str(tmp_path))
+    assert ("| DCP Table 4.1 | 1 tour heuristics, reward | 1 of 1 within 3 SE (largest +1.0 SE, +0.2%) | — "
+            "| reproduced |") in scorecard(str(tmp_path))
 
 
 def _figure(tmp_path, claims, name="standard"):

@@ -28,7 +28,8 @@ def simulate(env, params, policy, states, steps, seed=0):
 
 
 def resets(env, params, count, seed=0):
-    _, s = jax.jit(jax.vmap(env.reset_env, in_axes=(0, None)))(jax.random.split(jax.random.PRNGKey(seed), count), params)
+    keys = jax.random.split(jax.random.PRNGKey(seed), count)
+    _, s = jax.jit(jax.vmap(env.reset_env, in_axes=(0, None)))(keys, params)
     return s
 
 

@@ -105,4 +105,5 @@ def test_library_errors_name_fields_and_the_command_line_names_flags(capsys, tmp
     assert str(e.value).startswith("aux_lr sets OMN's learning rate and applies to net omn_conn only")
     assert e.value.render().startswith("--omn-lr sets OMN's learning rate and applies to --net omn_conn only")
     refused(train_dcg.main, ["--net", "vnn", "--omn-lr", "1e-3", "--steps", "64", "--envs", "2", "--t-max", "4",
-                             "--out", str(tmp_path / "run")], capsys, "--omn-lr sets OMN's learning rate and applies to --net omn_conn only, not 'vnn'")
+                             "--out", str(tmp_path / "run")], capsys,
+            "--omn-lr sets OMN's learning rate and applies to --net omn_conn only, not 'vnn'")

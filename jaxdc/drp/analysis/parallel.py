@@ -12,8 +12,8 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import threading
 import sys
+import threading
 import time
 
 from jaxdc.drp.analysis.experiment import experiment_arrays, pgc_plans, progress_units, run_experiment

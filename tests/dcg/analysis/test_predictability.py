@@ -1,4 +1,5 @@
-"""The ceiling of opponent-action prediction (jaxdc.dcg.analysis.predictability): labels aligned, Bayes predictor sound."""
+"""The ceiling of opponent-action prediction (jaxdc.dcg.analysis.predictability): labels aligned, Bayes predictor
+sound."""
 
 from __future__ import annotations
 

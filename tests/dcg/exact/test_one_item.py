@@ -132,7 +132,8 @@ def test_bound_per_reward_area_reuses_the_solution(thesis_game):
     # the bound of the square of side s is the item-count-weighted mix of the ring (L-shaped) areas
     totals = [one_item.full_information_bound(env, params, s, solution=sol)["total"] for s in range(1, n + 1)]
     assert 0.0 < min(totals) and max(totals) < 1.0
-    assert totals[1] * 4 == pytest.approx(totals[0] + 3 * one_item.bound_from_solution(sol, [n * n - 2, n * n - n - 2, n * n - n - 1])["total"])
+    others = one_item.bound_from_solution(sol, [n * n - 2, n * n - n - 2, n * n - n - 1])["total"]
+    assert totals[1] * 4 == pytest.approx(totals[0] + 3 * others)
     with pytest.raises(ValueError, match="solution"):
         one_item.full_information_bound(env, env.make_params(energy=7.0, max_steps=30), solution=sol)
     one = one_item.full_information_bound(env, params, 1, solution=sol)
