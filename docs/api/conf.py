@@ -4,7 +4,7 @@ Build (strict: any warning fails):
     sphinx-build -W --keep-going -n -b html docs/api docs/api/_build/html
 
 Every page is ``automodule`` with ``:members:``, so the reference is the code's docstrings
-(Google style, read by napoleon) and never a copy of them. tests/test_docs_api.py runs the
+(Google style, read by napoleon) and never a copy of them. tests/docs/test_api.py runs the
 same strict build and checks that every module of jaxdc has its page.
 """
 

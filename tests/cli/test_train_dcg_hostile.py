@@ -16,11 +16,6 @@ DCG = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies"
        "--envs", "4", "--t-max", "8", "--eval-every", "256", "--eval-episodes", "8", "--no-progress"]
 
 
-def _refused(cli, argv, capsys, *needles):
-    """``cli.main(argv)`` is a usage error (exit 2) naming every needle (:func:`cli_checks.refused`)."""
-    return refused(cli.main, argv, capsys, *needles)
-
-
 # ----------------------------------------------------------------------------- flags: train.dcg
 
 @pytest.mark.parametrize("extra, needles", [
@@ -37,7 +32,7 @@ def _refused(cli, argv, capsys, *needles):
 ])
 def test_train_dcg_refuses_bad_flags(extra, needles, tmp_path, capsys):
     out = tmp_path / "run"
-    _refused(train_dcg, DCG + ["--out", str(out)] + extra, capsys, *needles)
+    refused(train_dcg.main, DCG + ["--out", str(out)] + extra, capsys, *needles)
     assert not out.exists()
 
 
@@ -45,6 +40,6 @@ def test_train_dcg_ship_path_is_checked_before_training(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("x")
     out = tmp_path / "run"
-    _refused(train_dcg, DCG + ["--out", str(out), "--ship", str(blocker / "net.msgpack")], capsys,
-             "--ship", "is a file")
+    refused(train_dcg.main, DCG + ["--out", str(out), "--ship", str(blocker / "net.msgpack")], capsys,
+            "--ship", "is a file")
     assert not out.exists()

@@ -23,20 +23,14 @@ import pytest
 from jaxdc import checkpoint
 from jaxdc.agents import a2c
 from jaxdc.cli import train_dcg, train_dcp
-from tests.support.cli_checks import refused
+from tests.support.cli_checks import ROOT, checkout_env, refused, wait_for
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 # 8 updates of 4 envs x 8 steps on a 4x4 grid; one evaluation and checkpoint at the end.
 TINY = ["--net", "linear", "--grid-size", "4", "--total-reward", "6", "--energy", "4", "8", "--risk", "low",
         "--steps", "256", "--envs", "4", "--t-max", "8", "--eval-every", "256", "--eval-episodes", "8",
         "--no-progress"]
 DCG = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies", "restricted", "--steps", "256",
        "--envs", "4", "--t-max", "8", "--eval-every", "256", "--eval-episodes", "8", "--no-progress"]
-
-
-def _refused(cli, argv, capsys, *needles):
-    """``cli.main(argv)`` is a usage error (exit 2) naming every needle (:func:`cli_checks.refused`)."""
-    return refused(cli.main, argv, capsys, *needles)
 
 
 def _strict(path):
@@ -66,7 +60,7 @@ def _strict(path):
 ])
 def test_train_dcp_refuses_bad_flags(extra, needles, tmp_path, capsys):
     out = tmp_path / "run"
-    _refused(train_dcp, TINY + ["--out", str(out)] + extra, capsys, *needles)
+    refused(train_dcp.main, TINY + ["--out", str(out)] + extra, capsys, *needles)
     assert not out.exists()
 
 
@@ -77,30 +71,30 @@ def test_train_dcp_refuses_bad_flags(extra, needles, tmp_path, capsys):
 ])
 def test_a_flag_that_does_not_apply_is_refused_not_ignored(cli, argv, needles, tmp_path, capsys):
     out = tmp_path / "run"
-    _refused(cli, argv + ["--out", str(out)], capsys, *needles)
+    refused(cli.main, argv + ["--out", str(out)], capsys, *needles)
     assert not out.exists()
 
 
 def test_train_dcp_refuses_a_batch_too_big_for_memory_before_compiling(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**20))
     out = tmp_path / "run"
-    _refused(train_dcp, TINY + ["--out", str(out), "--envs", "4096", "--steps", "65536"], capsys,
-             "--envs", "--t-max", "MiB")
+    refused(train_dcp.main, TINY + ["--out", str(out), "--envs", "4096", "--steps", "65536"], capsys,
+            "--envs", "--t-max", "MiB")
     assert not (out / "config.json").exists()
 
 
 def test_train_dcp_refuses_evaluation_episodes_too_many_for_memory(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**24))
     out = tmp_path / "run"
-    _refused(train_dcp, TINY + ["--out", str(out), "--eval-episodes", "100000000"], capsys,
-             "100000000 evaluation episodes", "lower the number of episodes")
+    refused(train_dcp.main, TINY + ["--out", str(out), "--eval-episodes", "100000000"], capsys,
+            "100000000 evaluation episodes", "lower the number of episodes")
     assert not (out / "config.json").exists()
 
 
 def test_train_dcp_out_under_a_file_is_refused_before_work(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    _refused(train_dcp, TINY + ["--out", str(blocker / "run")], capsys, "--out", "is a file")
+    refused(train_dcp.main, TINY + ["--out", str(blocker / "run")], capsys, "--out", "is a file")
     assert blocker.read_text() == "x"
 
 
@@ -108,12 +102,12 @@ def test_train_dcp_tensorboard_folder_blocked_by_a_file(tmp_path, capsys):
     out = tmp_path / "run"
     out.mkdir()
     (out / "tb").write_text("x")
-    _refused(train_dcp, TINY + ["--out", str(out), "--tensorboard"], capsys, "--tensorboard", "tb")
+    refused(train_dcp.main, TINY + ["--out", str(out), "--tensorboard"], capsys, "--tensorboard", "tb")
     assert sorted(os.listdir(out)) == ["tb"]
 
 
 def test_train_dcp_read_only_out_is_refused(read_only_folder, capsys):
-    _refused(train_dcp, TINY + ["--out", str(read_only_folder / "run")], capsys, "--out", "not writable")
+    refused(train_dcp.main, TINY + ["--out", str(read_only_folder / "run")], capsys, "--out", "not writable")
     assert os.listdir(read_only_folder) == []
 
 
@@ -132,8 +126,8 @@ def test_run_files_are_strict_json(finished):
 
 
 def test_resume_mismatch_names_the_differing_keys(finished, capsys):
-    err = _refused(train_dcp, TINY + ["--out", finished, "--resume", "--lr", "0.003"], capsys,
-                   "algorithm.lr: checkpoint has 0.0001, this run has 0.003")
+    err = refused(train_dcp.main, TINY + ["--out", finished, "--resume", "--lr", "0.003"], capsys,
+                  "algorithm.lr: checkpoint has 0.0001, this run has 0.003")
     assert "algorithm.gamma" not in err
 
 
@@ -152,7 +146,7 @@ def test_a_corrupt_checkpoint_is_one_clear_error(finished, tmp_path, capsys):
             for name in files:
                 with open(os.path.join(root, name), "wb") as f:
                     f.write(b"\x00garbage")
-    err = _refused(train_dcp, TINY + ["--out", out, "--resume"], capsys, "corrupt", "checkpoints")
+    err = refused(train_dcp.main, TINY + ["--out", out, "--resume"], capsys, "corrupt", "checkpoints")
     assert "Event loop is closed" not in err and "tensorstore_spec" not in err
 
 
@@ -174,27 +168,15 @@ def test_nan_stop_before_any_checkpoint_says_none_exists(tmp_path, monkeypatch, 
 
 # ----------------------------------------------------------------------------- Ctrl-C (subprocesses)
 
-def _env():
-    return dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-
-
-def _wait_for(predicate, timeout):
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < timeout:
-        if predicate():
-            return True
-        time.sleep(0.1)
-    return False
-
 
 def test_ctrl_c_in_train_dcp_exits_130_and_leaves_a_consistent_run(tmp_path):
     out = tmp_path / "run"
     argv = [a for a in TINY]
     argv[argv.index("--steps") + 1] = "2000000"
     argv[argv.index("--eval-every") + 1] = "64"
-    proc = subprocess.Popen([sys.executable, "-m", "train.dcp", *argv, "--out", str(out)], cwd=ROOT, env=_env(),
+    proc = subprocess.Popen([sys.executable, "-m", "train.dcp", *argv, "--out", str(out)], cwd=ROOT, env=checkout_env(),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    assert _wait_for(lambda: checkpoint.steps(out / "checkpoints"), 60), proc.stderr
+    assert wait_for(lambda: checkpoint.steps(out / "checkpoints"), 60), proc.stderr
     time.sleep(0.5)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)

@@ -17,15 +17,7 @@ import time
 import pytest
 
 from jaxdc.cli import train_ship
-from tests.support.cli_checks import refused
-
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-
-def _refused(cli, argv, capsys, *needles):
-    """``cli.main(argv)`` is a usage error (exit 2) naming every needle (:func:`cli_checks.refused`)."""
-    return refused(cli.main, argv, capsys, *needles)
-
+from tests.support.cli_checks import ROOT, checkout_env, refused, wait_for
 
 # ----------------------------------------------------------------------------- flags: train.ship
 
@@ -34,38 +26,26 @@ def _refused(cli, argv, capsys, *needles):
     (["--jobs", "0"], ["--jobs", ">= 1"]),
 ])
 def test_train_ship_refuses_bad_flags(extra, needles, capsys):
-    _refused(train_ship, ["--only", "enn"] + extra, capsys, *needles)
+    refused(train_ship.main, ["--only", "enn"] + extra, capsys, *needles)
 
 
 def test_train_ship_output_folders_are_checked_first(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    _refused(train_ship, ["--only", "enn", "--runs", str(tmp_path / "runs"), "--out", str(blocker / "assets")],
-             capsys, "--out", "is a file")
+    refused(train_ship.main, ["--only", "enn", "--runs", str(tmp_path / "runs"), "--out", str(blocker / "assets")],
+            capsys, "--out", "is a file")
     assert not (tmp_path / "runs").exists()
 
 
 # ----------------------------------------------------------------------------- Ctrl-C (subprocesses)
 
-def _env():
-    return dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-
-
-def _wait_for(predicate, timeout):
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < timeout:
-        if predicate():
-            return True
-        time.sleep(0.1)
-    return False
-
 
 def test_ctrl_c_in_train_ship_stops_its_children(tmp_path):
     runs = tmp_path / "runs"
     proc = subprocess.Popen([sys.executable, "-m", "train.ship", "--only", "enn", "--steps", "100000000",
-                             "--runs", str(runs), "--out", str(tmp_path / "assets")], cwd=ROOT, env=_env(),
+                             "--runs", str(runs), "--out", str(tmp_path / "assets")], cwd=ROOT, env=checkout_env(),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    assert _wait_for(lambda: (runs / "enn.log").exists(), 30)
+    assert wait_for(lambda: (runs / "enn.log").exists(), 30)
     time.sleep(1.0)
     children = _children(proc.pid)
     assert children, "train.ship started no training"

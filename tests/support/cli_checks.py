@@ -1,4 +1,26 @@
-"""Checks shared by the command-line tests: a refused command line, a tiny finished training run."""
+"""Checks shared by the command-line tests: a refused command line, a tiny finished training run, the checkout's
+subprocesses (``python -m train.*`` from the repository root)."""
+
+import os
+import time
+
+#: The repository root: the checkout whose ``train/`` and ``eval/`` shims the subprocess tests start.
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def checkout_env() -> dict:
+    """The environment of a subprocess of the checkout: :data:`ROOT` first on ``PYTHONPATH``."""
+    return dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+
+
+def wait_for(predicate, timeout: float) -> bool:
+    """Whether ``predicate()`` turned true within ``timeout`` seconds (polled every 0.1 s)."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        if predicate():
+            return True
+        time.sleep(0.1)
+    return False
 
 
 def refused(main, argv, capsys, *needles, code=2) -> str:

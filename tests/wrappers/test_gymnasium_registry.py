@@ -1,6 +1,6 @@
 """``gymnasium.utils.env_checker.check_env`` passes for every environment id jaxdc registers.
 
-The per-environment tests (``test_wrappers_gymnasium.py``, ``test_wrappers_gymnasium_dcg.py``) check their
+The per-environment tests (``test_gymnasium.py``, ``test_gymnasium_dcg.py``) check their
 own ids with several settings; this one walks the registry, so an id added later is
 checked without a new test.
 """
