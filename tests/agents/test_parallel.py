@@ -34,7 +34,7 @@ SCRIPT = textwrap.dedent("""
     import json, sys
     import jax, numpy as np
     from jaxdc.agents import a2c, parallel
-    from tests.test_agents_parallel import CONFIG, ENV, PARAMS
+    from tests.agents.test_parallel import CONFIG, ENV, PARAMS
     from jaxdc.nets import make_net
     mesh = parallel.data_mesh()
     t = parallel.parallelize(a2c.make_train(CONFIG, ENV, PARAMS, make_net("cnn")), mesh)
