@@ -277,12 +277,11 @@ def nc_against(rev, graphs, nodes, alphas, builders):
 def _fig_child(graphs, nodes, alphas, out):
     """Child of :func:`figure_against`: the figure-3.1 experiment twice (first run, warm) with whichever
     ``jaxdc`` is first on ``sys.path``; rewards and times to ``out``."""
-    import json
-
     from jaxdc.drp.tours import BUILDERS
 
     try:
-        from jaxdc.drp import plans as plans_mod, solve
+        from jaxdc.drp import plans as plans_mod
+        from jaxdc.drp import solve
 
         try:
             from jaxdc.drp.analysis import experiment

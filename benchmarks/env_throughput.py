@@ -58,13 +58,13 @@ import numpy as np  # noqa: E402
 
 from benchmarks import handbatched_dcp, numpy_dcp  # noqa: E402
 from benchmarks.publish import publish  # noqa: E402
+from jaxdc.cli.args import positive_int  # noqa: E402
+from jaxdc.cli.runner import run as run_cli  # noqa: E402
 from jaxdc.core.env import step_batch  # noqa: E402
 from jaxdc.core.paths import safest_paths  # noqa: E402
 from jaxdc.dcp import navigators  # noqa: E402
 from jaxdc.dcp.env import DCP  # noqa: E402
 from jaxdc.dcp.evaluate import evaluate_heuristic  # noqa: E402
-from jaxdc.cli.args import positive_int  # noqa: E402
-from jaxdc.cli.runner import run as run_cli  # noqa: E402
 from jaxdc.io import check_output_folder, json_text  # noqa: E402
 
 DEFAULT_BATCH_SIZES = (1, 64, 1024, 4096, 16384)
@@ -213,7 +213,8 @@ def bench_table43(episodes: int, repeats: int, names=TABLE43_NAVIGATORS, seed: i
     key = jax.random.key(seed)
     per = {}
     for name in names:
-        first, best = _time_best(lambda: evaluate_heuristic(env, params, name, key, episodes), repeats)
+        # timed within this iteration, so the lambda's `name` is this iteration's
+        first, best = _time_best(lambda: evaluate_heuristic(env, params, name, key, episodes), repeats)  # noqa: B023
         steps = int(np.asarray(evaluate_heuristic(env, params, name, key, episodes).time).sum())
         per[name] = {"compile_s": max(first - best, 0.0), "run_s": best, "episode_steps": steps}
         log(f"  table 4.3 {name}: compile {per[name]['compile_s']:.2f} s, run {best:.3f} s")

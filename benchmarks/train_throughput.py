@@ -64,9 +64,9 @@ import jax.numpy as jnp  # noqa: E402
 from benchmarks.env_throughput import make_env  # noqa: E402
 from benchmarks.publish import publish  # noqa: E402
 from jaxdc.agents import a2c  # noqa: E402
+from jaxdc.cli.args import positive_float, positive_int  # noqa: E402
 from jaxdc.core.paths import safest_paths  # noqa: E402
 from jaxdc.dcp import navigators  # noqa: E402
-from jaxdc.cli.args import positive_float, positive_int  # noqa: E402
 from jaxdc.io import atomic_write_json, check_output_folder, json_text  # noqa: E402
 from jaxdc.nets import make_net  # noqa: E402
 from jaxdc.provenance import provenance  # noqa: E402
@@ -90,7 +90,8 @@ TARGET_DCG_1M_S = 300.0
 
 def ppo_options() -> dict:
     """The :class:`~jaxdc.agents.a2c.A2CConfig` fields of the PPO-style option, as ``jaxdc.training.presets.PPO``
-    passes them to ``train.dcp`` (docs/learning.md); the ``jaxdc enn ppo`` rows time them (``num_envs`` from ``--ppo-envs``)."""
+    passes them to ``train.dcp`` (docs/learning.md); the ``jaxdc enn ppo`` rows time them (``num_envs`` from
+    ``--ppo-envs``)."""
     from jaxdc.cli.train_dcp import build_parser
     from jaxdc.training.fields import flags
     from jaxdc.training.presets import PPO
@@ -323,7 +324,8 @@ def run(args) -> dict:
                 _save_partial(args.out_dir, rows)
     for b in args.ppo_envs:
         row = bench_jax("enn", b, "loop", args.chunk_steps, repeats, ppo=True)
-        log(f"{row['impl']:>14} loop envs={b:<4} {row['steps_per_s']:>10,.0f} steps/s (compile {row['compile_s']:.1f} s)")
+        log(f"{row['impl']:>14} loop envs={b:<4} {row['steps_per_s']:>10,.0f} steps/s "
+            f"(compile {row['compile_s']:.1f} s)")
         rows.append(row)
         _save_partial(args.out_dir, rows)
     dcg = None
@@ -422,13 +424,15 @@ def targets(result: dict) -> dict:
 def markdown(result: dict) -> str:
     fl = result["flops"]
     lines = ["| implementation | layout | threads | envs | env-steps/s | 1M steps (min) | compile (s) | "
-             "env-steps per CPU-s | 1M steps (CPU-min) | CNN GFLOP/s |", "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+             "env-steps per CPU-s | 1M steps (CPU-min) | CNN GFLOP/s |",
+             "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for r in result["rows"]:
         extra = f" (env alone {r['env_only_steps_per_s']:,.0f}/s)" if "env_only_steps_per_s" in r else ""
         gf = f"{r['gflops']:.1f}" if "gflops" in r else "-"
         lines.append(f"| {r['impl']}{extra} | {r['layout']} | {r['threads']} | {r['num_envs']} | "
                      f"{r['steps_per_s']:,.0f} | {(1e6 / r['steps_per_s'] + r['compile_s']) / 60:.1f} | "
-                     f"{r['compile_s']:.1f} | {r['steps_per_cpu_s']:,.0f} | {1e6 / r['steps_per_cpu_s'] / 60:.1f} | {gf} |")
+                     f"{r['compile_s']:.1f} | {r['steps_per_cpu_s']:,.0f} | "
+                     f"{1e6 / r['steps_per_cpu_s'] / 60:.1f} | {gf} |")
     if result["comparisons"]:
         keys = list(result["comparisons"][0]["vs"])
         lines += ["", "Ratios, jaxdc (its faster layout) / SB3 (vec env / torch threads), same run:", "",
@@ -443,7 +447,8 @@ def markdown(result: dict) -> str:
     lines += ["", f"FLOP ceiling of the plain CNN: {fl['cnn_train_per_sample'] / 1e6:.2f} MFLOP per training sample "
               f"({fl['cnn_forward_per_sample'] / 1e6:.2f} forward x 4); at the assumed {fl['assumed_cpu_gflops']:.0f} "
               f"GFLOP/s that is {fl['ceiling_assumed_steps_per_s']:,.0f} steps/s, at the measured "
-              f"{fl['measured_cpu_gflops']:.0f} GFLOP/s (float32 1024^2 matmul) {fl['ceiling_measured_steps_per_s']:,.0f} "
+              f"{fl['measured_cpu_gflops']:.0f} GFLOP/s (float32 1024^2 matmul) "
+              f"{fl['ceiling_measured_steps_per_s']:,.0f} "
               "steps/s."]
     if cnn:
         best = max(cnn, key=lambda r: r["steps_per_s"])

@@ -129,7 +129,8 @@ def check_run(meta: object, problem: str, where: str) -> dict:
     fields = algorithm_fields(meta["net"])
     unknown = sorted(set(meta["algorithm"]) - set(fields))
     if unknown:
-        raise ValueError(f"{where}: 'algorithm' has fields no {_config_class(meta['net']).__name__} has: {', '.join(unknown)}")
+        raise ValueError(f"{where}: 'algorithm' has fields no {_config_class(meta['net']).__name__} has: "
+                         f"{', '.join(unknown)}")
     return check_values(meta, where)
 
 

@@ -4,7 +4,7 @@ Build (strict: any warning fails):
     sphinx-build -W --keep-going -n -b html docs/api docs/api/_build/html
 
 Every page is ``automodule`` with ``:members:``, so the reference is the code's docstrings
-(Google style, read by napoleon) and never a copy of them. tests/test_docs_api.py runs the
+(Google style, read by napoleon) and never a copy of them. tests/docs/test_api.py runs the
 same strict build and checks that every module of jaxdc has its page.
 """
 
@@ -52,7 +52,8 @@ nitpicky = True
 # The build is offline (no intersphinx), so names of other libraries cannot resolve: they render as
 # text (the standard library's too, e.g. ``argparse.ArgumentParser`` in the CLI signatures). Private
 # helpers (``_name``) are not in the reference by design.
-_THIRD_PARTY = r"(argparse|pathlib|collections|typing|jax|jaxlib|jnp|numpy|np|flax|nn|optax|orbax|chex|gymnasium|stable_baselines3|matplotlib|PIL|torch|tqdm)"
+_THIRD_PARTY = (r"(argparse|pathlib|collections|typing|jax|jaxlib|jnp|numpy|np|flax|nn|optax|orbax|chex|gymnasium|"
+                r"stable_baselines3|matplotlib|PIL|torch|tqdm)")
 nitpick_ignore_regex = [
     (r"py:.*", _THIRD_PARTY + r"(\..*)?"),
     (r"py:.*", r"(.*\.)?_[A-Za-z0-9].*"),

@@ -50,14 +50,21 @@ from jaxdc.dcg.analysis.claims import claims
 from jaxdc.dcg.analysis.collector_eval import evaluate
 from jaxdc.dcg.analysis.experiment import group_key, network_pool, run_experiment, stored_standard
 from jaxdc.dcg.analysis.figures import EXPERIMENTS, FIGURES, missing
-from jaxdc.dcg.analysis.report import (figure_csv, figure_markdown, figure_payload, optimum_name, optimum_payload,
-                                       optimum_text, report, result_name)
+from jaxdc.dcg.analysis.report import (
+    figure_csv,
+    figure_markdown,
+    figure_payload,
+    optimum_name,
+    optimum_payload,
+    optimum_text,
+    report,
+    result_name,
+)
 from jaxdc.dcg.env import CAPTURES, DCG, OPPONENT_STARTS, OUTCOMES, PATROL_TARGETS
 from jaxdc.dcg.exact.machine import MAX_GRID_SIZE
 from jaxdc.dcg.exact.many_items import sampled_bound
 from jaxdc.dcg.opponents import CHASE_TIES, DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
-from jaxdc.io import (atomic_write_json, atomic_write_set, check_output_folder, enable_compilation_cache,
-                      json_text)
+from jaxdc.io import atomic_write_json, atomic_write_set, check_output_folder, enable_compilation_cache, json_text
 from jaxdc.provenance import provenance
 from jaxdc.viewer.bars import bar_chart_png, strategy_chart_png
 from jaxdc.viewer.media import animation_bytes, check_animation, strip_png

@@ -53,8 +53,8 @@ import dataclasses
 import os
 import sys
 
-from jaxdc.cli.args import integer, positive_float, positive_int, real, seed, unit_interval
 from jaxdc.cli import eval_dcp_generalisation as generalisation
+from jaxdc.cli.args import integer, positive_float, positive_int, real, seed, unit_interval
 from jaxdc.cli.runner import command_line, with_subcommand
 from jaxdc.core import grid
 from jaxdc.core.energy import MAX_FINITE_ENERGY
@@ -63,9 +63,6 @@ from jaxdc.core.sampling import MAX_TOTAL_REWARD
 from jaxdc.core.stats import format_number
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import learned as learned_lib
-from jaxdc.dcp.learned import EQN_EPSILON, NETS, Learned
-from jaxdc.dcp.navigators import POLICIES
-from jaxdc.dcp.planners import CF_DISTANCES, PlannerConfig
 from jaxdc.dcp.analysis.best_learner import best_row
 from jaxdc.dcp.analysis.best_learner import row_name as best_row_name
 from jaxdc.dcp.analysis.risk_map import load_risk_map
@@ -74,6 +71,9 @@ from jaxdc.dcp.analysis.setting import DEFAULT_SETTING, EnvOptions, Setting, eva
 from jaxdc.dcp.analysis.table_learner import check_learner, shipped_learner
 from jaxdc.dcp.analysis.table_results import best_markdown, markdown_table, table_markdown_file, table_payload
 from jaxdc.dcp.analysis.tables import TABLES, TableSpec, incr_rows
+from jaxdc.dcp.learned import EQN_EPSILON, NETS, Learned
+from jaxdc.dcp.navigators import POLICIES
+from jaxdc.dcp.planners import CF_DISTANCES, PlannerConfig
 from jaxdc.io import atomic_write_set, check_output_folder, enable_compilation_cache, json_text
 from jaxdc.provenance import provenance
 

@@ -29,8 +29,14 @@ from jaxdc.drp.exact.subset_dp import MAX_NODES as EXACT_MAX_NODES
 from jaxdc.drp.solve import CLUSTERINGS
 from jaxdc.drp.tours import BUILDERS
 from jaxdc.drp.world import COORD_MAX, MAX_NODES, VALUE_MAX
-from jaxdc.io import atomic_write, atomic_write_set, check_output_folder, check_output_path, \
-    enable_compilation_cache, json_text
+from jaxdc.io import (
+    atomic_write,
+    atomic_write_set,
+    check_output_folder,
+    check_output_path,
+    enable_compilation_cache,
+    json_text,
+)
 from jaxdc.provenance import provenance
 
 PROG = "python -m eval.drp"
@@ -148,7 +154,8 @@ def build_parser() -> argparse.ArgumentParser:
     pf.add_argument("--seed", type=seed("--seed"), default=0)
     pf.add_argument("--quick", action="store_true", help="10 graphs of 30 nodes")
     pf.add_argument("--force", action="store_true", help="recompute even if cached results exist")
-    pf.add_argument("--cache", action="store_true", help="persistent XLA compilation cache (~/.cache/jaxdc/xla; JAXDC_NO_CACHE=1 turns it off)")
+    pf.add_argument("--cache", action="store_true",
+                    help="persistent XLA compilation cache (~/.cache/jaxdc/xla; JAXDC_NO_CACHE=1 turns it off)")
     pf.add_argument("--workers", type=positive_int("--workers", MAX_WORKERS), default=min(os.cpu_count() or 1, 6),
                     help="processes, each taking a group of builders (default: one per CPU core, at most 6; "
                          "more than one per builder are not started)")

@@ -27,7 +27,6 @@ import sys
 from jaxdc.io import atomic_write, check_output_path
 from jaxdc.report import build_page
 
-
 PROG = "python -m eval.report"
 #: The notes appended when ``--notes`` is not given (only if the file exists).
 DEFAULT_NOTES = os.path.join("docs", "results_notes.md")

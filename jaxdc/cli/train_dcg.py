@@ -43,16 +43,25 @@ import os
 import shlex
 import sys
 
-from jaxdc.agents.a2c import A2CConfig
 from jaxdc import pretrained
+from jaxdc.agents.a2c import A2CConfig
 from jaxdc.cli.args import integer, nonnegative_float, positive_float, positive_int
-from jaxdc.cli.train_common import (EXIT_NAN, a2c_settings, add_a2c_arguments, add_config_arguments,
-                                    check_outputs, fmt, parse_with_config, run_control, seed_tag, training_energy)
+from jaxdc.cli.train_common import (
+    EXIT_NAN,
+    a2c_settings,
+    add_a2c_arguments,
+    add_config_arguments,
+    check_outputs,
+    fmt,
+    parse_with_config,
+    run_control,
+    seed_tag,
+    training_energy,
+)
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.io import check_output_path, enable_compilation_cache
 from jaxdc.training.dcg import NETS, DCGRun, DCGSettings, settings_from_metadata
 from jaxdc.training.fields import SettingError
-
 
 #: EMNN's default weight of Eq. 5.1 (section 5.5.2).
 ALPHA = 0.001

@@ -32,9 +32,20 @@ from jaxdc.agents.a2c import A2CConfig
 from jaxdc.agents.common import RunConfig
 from jaxdc.agents.nstep_q import EVAL_EPSILON, QConfig
 from jaxdc.cli.args import integer, positive_int, unit_interval
-from jaxdc.cli.train_common import (A2C_FLAGS, EXIT_NAN, a2c_settings, add_a2c_arguments, add_config_arguments,
-                                    check_outputs, fmt, learner_options_set, parse_with_config, run_control,
-                                    seed_tag, training_energy)
+from jaxdc.cli.train_common import (
+    A2C_FLAGS,
+    EXIT_NAN,
+    a2c_settings,
+    add_a2c_arguments,
+    add_config_arguments,
+    check_outputs,
+    fmt,
+    learner_options_set,
+    parse_with_config,
+    run_control,
+    seed_tag,
+    training_energy,
+)
 from jaxdc.core import generators, grid
 from jaxdc.io import enable_compilation_cache
 from jaxdc.training.dcp import NETS, DCPRun, DCPSettings, settings_from_metadata

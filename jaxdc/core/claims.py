@@ -24,5 +24,6 @@ class Verdict(NamedTuple):
 
 
 def agreement(ok: bool | None) -> str:
-    """A test's outcome as a verdict: ``True`` -> ``"yes"``, ``False`` -> ``"no"``, ``None`` (not judged) -> ``"n/a"``."""
+    """A test's outcome as a verdict: ``True`` -> ``"yes"``, ``False`` -> ``"no"``, ``None`` (not judged) ->
+    ``"n/a"``."""
     return "n/a" if ok is None else ("yes" if ok else "no")

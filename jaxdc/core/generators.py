@@ -222,7 +222,8 @@ GENERATORS: dict[str, RiskGenerator] = {
     "bumps": Bumps(),
     # the training family of enn_general: thesis-like rings, uniform noise and smooth fields, plus the thesis'
     # own three maps (they are evaluation settings of the tables, not held-out maps)
-    "mix": Mixture((Rings(), UniformRisk(0.0, 0.5, power=3.0), Bumps(), Preset("low"), Preset("medium"), Preset("high")),
+    "mix": Mixture((Rings(), UniformRisk(0.0, 0.5, power=3.0), Bumps(),
+                    Preset("low"), Preset("medium"), Preset("high")),
                    (3.0, 2.0, 3.0, 0.33, 0.33, 0.34)),
 }
 

@@ -116,7 +116,8 @@ def _grid_checker(grid_size: int | None) -> Callable[[dict, str], None]:
     return check
 
 
-def load(path: pretrained.PathLike, net: str | None = None, grid_size: int | None = None, run_seed: int | None = None) -> Learned:
+def load(path: pretrained.PathLike, net: str | None = None, grid_size: int | None = None,
+         run_seed: int | None = None) -> Learned:
     """Load a learned policy from a parameter file (``.msgpack``) or a ``train.dcp`` run folder.
 
     ``net`` and ``grid_size``, when given, must match the stored metadata
@@ -136,8 +137,7 @@ def _train_state(name: str, meta: dict, source: str) -> Any:
     """An initial training state with the structure of a ``train.dcp`` checkpoint of ``meta`` (restore target)."""
     from jaxdc.agents import a2c, nstep_q
     from jaxdc.core.paths import safest_paths
-    from jaxdc.dcp import navigators
-    from jaxdc.dcp import instances
+    from jaxdc.dcp import instances, navigators
     from jaxdc.dcp.env import DCP
 
     s = {k: meta.get(k, DEFAULT_SETTING[k]) for k in SETTING_KEYS}

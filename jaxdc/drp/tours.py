@@ -352,5 +352,6 @@ def build_tour_jit(criterion, D, beta, psi, mask):
 
 @partial(jax.jit, static_argnames="criterion")
 def build_tours_batch(criterion, D, beta, psi, masks):
-    """:func:`build_tour` vmapped over a batch: ``D [B, K+1, K+1]``, ``beta [B, K+1]``, ``psi [B]``, ``masks [B, K+1]``."""
+    """:func:`build_tour` vmapped over a batch: ``D [B, K+1, K+1]``, ``beta [B, K+1]``, ``psi [B]``,
+    ``masks [B, K+1]``."""
     return jax.vmap(partial(build_tour, criterion))(D, beta, psi, masks)

@@ -40,12 +40,12 @@ class NetEntry:
     @property
     def uses_heuristics(self) -> bool:
         """Whether the network reads the heuristics of section 4.4.3 (a trainer computes them only then)."""
-        return bool(getattr(self.cls, "uses_heuristics"))
+        return bool(self.cls.uses_heuristics)
 
     @property
     def has_aux(self) -> bool:
         """Whether the network has the opponent-action head (EMNN, OMN + CoNN; section 5.4)."""
-        return bool(getattr(self.cls, "has_aux"))
+        return bool(self.cls.has_aux)
 
 
 #: The DCP's networks (section 4.5), in the order of the thesis' tables: ENN, the linear learner, the CNN, EQN.

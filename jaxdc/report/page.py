@@ -13,7 +13,7 @@ HEADER = """# Results: the thesis against jaxdc
 
 Every number below comes from the command printed above its table; rerun it to check.
 This page is built by `python -m eval.report` from the raw results committed in `results/`, so a clean
-clone rebuilds it (`tests/test_report_page.py` checks that the committed page is the rebuilt one).
+clone rebuilds it (`tests/report/test_page.py` checks that the committed page is the rebuilt one).
 The DRP figures are on [drp.md](drp.md); the readings behind the defaults are on
 [ambiguities.md](ambiguities.md).
 

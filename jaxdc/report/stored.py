@@ -9,7 +9,6 @@ import re
 
 from jaxdc import io
 
-
 #: A DCP table's results file: ``table_<T>.json`` with ``T`` a table number (``4.3``); other names are ignored.
 TABLE_FILE = re.compile(r"table_(\d+(?:\.\d+)*)\.json")
 

@@ -31,8 +31,7 @@ from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.metadata import FORMAT, algorithm_config, check_run
 from jaxdc.nets import DCG_NETS, build
 from jaxdc.training.fields import SettingError
-from jaxdc.training.loop import (RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits,
-                                 spread)
+from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
 
 #: The networks a DCG run trains (the names of the registry :data:`jaxdc.nets.DCG_NETS`).
 NETS = tuple(DCG_NETS)
@@ -178,7 +177,9 @@ class DCGRun(TrainingRun):
         finals, acc = jax.device_get(self._evaluate(params, key))
         rows = []
         for i in range(len(self.seeds)):
-            r = episode_summary(jax.tree_util.tree_map(lambda x: x[i], finals) if self.multi else finals, OUTCOMES)
+            # the lambda runs at once (tree_map), with this iteration's i
+            r = episode_summary(jax.tree_util.tree_map(lambda x: x[i], finals) if self.multi else finals,  # noqa: B023
+                                OUTCOMES)
             row = {"eval_reward": r["reward"]["mean"], "eval_reward_sd": r["reward"]["sd"],
                    "eval_rpe": r["rpe"]["mean"]}
             if self.settings.has_aux:

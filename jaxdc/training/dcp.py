@@ -26,9 +26,8 @@ from jaxdc.dcp import instances, navigators
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.metadata import FORMAT, algorithm_config, check_run
 from jaxdc.nets import DCP_NETS, NSTEP_Q, build
-from jaxdc.training.loop import (RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits,
-                                 spread)
 from jaxdc.training.instances import check_instance_settings, instance_metadata, training_params
+from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
 
 #: Networks (the registry :data:`jaxdc.nets.DCP_NETS`): the actor-critics train with A2C, EQN with n-step Q-learning.
 NETS = tuple(DCP_NETS)
@@ -172,7 +171,8 @@ class DCPRun(TrainingRun):
         results = jax.device_get(self._episodes(params, key))
         rows = []
         for i in range(len(self.seeds)):
-            r = summarize(jax.tree_util.tree_map(lambda x: x[i], results) if self.multi else results)
+            # the lambda runs at once (tree_map), with this iteration's i
+            r = summarize(jax.tree_util.tree_map(lambda x: x[i], results) if self.multi else results)  # noqa: B023
             rows.append({"eval_reward": r["reward"]["mean"], "eval_reward_sd": r["reward"]["sd"],
                          "eval_energy": r["energy"]["mean"], "eval_rpe": r["rpe"]["mean"]})
         return rows

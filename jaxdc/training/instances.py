@@ -15,7 +15,7 @@ import numpy as np
 from jaxdc.core import generators
 from jaxdc.core.validate import check_float, check_int
 from jaxdc.dcp import instances
-from jaxdc.dcp.env import OBSERVATIONS, DCP, EnvParams
+from jaxdc.dcp.env import DCP, OBSERVATIONS, EnvParams
 
 #: The held-out map seeds: the test maps of ``eval.dcp generalisation`` are drawn from these, training never.
 HELD_OUT = generators.SeedSet(generators.TEST_SEED_START, 1 << 20)

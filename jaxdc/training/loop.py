@@ -27,12 +27,12 @@ import jax
 import numpy as np
 
 from jaxdc import checkpoint
+from jaxdc import metadata as metadata_format
 from jaxdc.agents import parallel
 from jaxdc.agents.common import RunConfig, Trainer, lr_schedule
 from jaxdc.core import memory
 from jaxdc.io import atomic_write_json, check_output_folder
 from jaxdc.provenance import provenance
-from jaxdc import metadata as metadata_format
 from jaxdc.training.fields import SettingError
 from jaxdc.training.metrics import read_rows, tensorboard_writer, write_rows
 
@@ -269,7 +269,8 @@ class TrainingRun:
             update += n
             evals = spec.evaluate(state.params, self.eval_key(update))
             for i, (seed_rows, ev) in enumerate(zip(rows, evals)):
-                m = jax.tree_util.tree_map(lambda x: x[i], metrics) if self.multi else metrics
+                # the lambda runs at once (tree_map), with this iteration's i
+                m = jax.tree_util.tree_map(lambda x: x[i], metrics) if self.multi else metrics  # noqa: B023
                 episodes = int(np.sum(m["episodes"]))
                 row = {"env_steps": update * cfg.batch_size, "updates": update, "wall_s": round(wall, 3),
                        "steps_per_s": round(n * cfg.batch_size / wall, 1), "lr": float(schedule(update)),

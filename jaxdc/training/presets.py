@@ -97,8 +97,9 @@ BEYOND = {
 }
 #: The PPO-style options of ``train.dcp`` (docs/learning.md, "The PPO-style option at 1M steps"), the same
 #: options for every table: the best learners at the thesis' 1M steps.
-PPO: dict[str, Any] = {"num_envs": 32, "t_max": 32, "lr": 3e-4, "clip_eps": 0.2, "epochs": 4, "minibatches": 4, "gae_lambda": 0.95,
-       "normalize_advantages": True, "reset_slots": 4, "eval_every": 1_000_000, "eval_episodes": 4000}
+PPO: dict[str, Any] = {"num_envs": 32, "t_max": 32, "lr": 3e-4, "clip_eps": 0.2, "epochs": 4, "minibatches": 4,
+       "gae_lambda": 0.95, "normalize_advantages": True, "reset_slots": 4, "eval_every": 1_000_000,
+       "eval_episodes": 4000}
 BEYOND.update({  # the setting of the faithful ENN of the same tables, then the PPO options
     "enn_ppo": _dcp("4.3, 4.6 (beyond the thesis: the PPO-style option)", "enn", **PPO),
     "enn_ppo_low": _dcp("4.5 (beyond the thesis: the PPO-style option)", "enn", risk="low", **PPO),

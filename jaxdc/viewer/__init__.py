@@ -11,9 +11,9 @@ The figures are drawn on their own Agg canvas, never through ``pyplot``, so
 rendering leaks no global state and needs no display.
 """
 
+from jaxdc.viewer.curves import draw_curves
 from jaxdc.viewer.frame import cell_center, render_frame
 from jaxdc.viewer.media import save_animation, save_strip
 from jaxdc.viewer.plan import draw_plan
-from jaxdc.viewer.curves import draw_curves
 
-__all__ = ["render_frame", "cell_center", "save_strip", "save_animation", "draw_plan"]
+__all__ = ["render_frame", "cell_center", "save_strip", "save_animation", "draw_plan", "draw_curves"]

@@ -17,13 +17,31 @@ from __future__ import annotations
 
 from jaxdc.core.claims import Verdict, agreement
 from jaxdc.dcg.analysis.figures import NET_LABELS, Experiment, family
-from jaxdc.dcg.analysis.measures import (Bars, Claim, ClaimSet, bars_of, beat_vnn_at_every_size, best_above,
-                                         best_at_every_size, best_rpe_and_vnn_over_imnn, best_rpe_at_small_sizes,
-                                         better_than_standard, change_from_standard, energy_against_double_blind,
-                                         falls_as_area_shrinks, gain_over_vnn, gains_with_smaller_sds,
-                                         highest_with_smallest_sd, less_at_10_slightly_less_at_20, more_reward_at_10,
-                                         opponent_accuracy, ranking, rpe_higher_at_10_same_at_20, rpe_leaders,
-                                         share_of_bound)
+from jaxdc.dcg.analysis.measures import (
+    Bars,
+    Claim,
+    ClaimSet,
+    bars_of,
+    beat_vnn_at_every_size,
+    best_above,
+    best_at_every_size,
+    best_rpe_and_vnn_over_imnn,
+    best_rpe_at_small_sizes,
+    better_than_standard,
+    change_from_standard,
+    energy_against_double_blind,
+    falls_as_area_shrinks,
+    gain_over_vnn,
+    gains_with_smaller_sds,
+    highest_with_smallest_sd,
+    less_at_10_slightly_less_at_20,
+    more_reward_at_10,
+    opponent_accuracy,
+    ranking,
+    rpe_higher_at_10_same_at_20,
+    rpe_leaders,
+    share_of_bound,
+)
 
 # -- the claims ------------------------------------------------------------------------------------
 

@@ -83,7 +83,8 @@ def is_strong(meta: dict) -> bool:
 
 
 def label(meta: dict) -> str:
-    """The bar label of a network: ``VNN``, ``IMNN``, ``EMNN a=0.001``, ``OMN+CoNN``; ``... strong`` for a strong one."""
+    """The bar label of a network: ``VNN``, ``IMNN``, ``EMNN a=0.001``, ``OMN+CoNN``; ``... strong`` for a strong
+    one."""
     name = meta.get("net")
     text = NET_LABELS.get(name, str(name))
     if name == "emnn" and meta.get("alpha") is not None:

@@ -25,7 +25,6 @@ from jaxdc.dcg.opponents import DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES
 from jaxdc.dcg.summary import MeanSD
 from jaxdc.io import unlimited_to_json
 
-
 # -- one evaluation -------------------------------------------------------------------------------
 #: How the text reports show a statistic that is undefined (``null`` in JSON, an empty CSV cell).
 UNDEFINED = "—"

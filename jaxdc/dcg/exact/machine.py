@@ -112,7 +112,8 @@ def _opponent_table(env, params, strategy: int):
     again = [np.asarray(x) for x in _moves(ep, s, jax.random.PRNGKey(2), *args)]
     name = env.strategies[strategy]
     if any(not np.array_equal(a, b) for a, b in zip(out, again)):
-        raise ValueError(f"strategy {name!r} is random here (check chase_tie); the exact bound needs a deterministic opponent")
+        raise ValueError(f"strategy {name!r} is random here (check chase_tie); "
+                         "the exact bound needs a deterministic opponent")
     npos, nhome, ntarget, nphase = out
     flat = lambda xy: xy[..., 0] * n + xy[..., 1]  # noqa: E731
     if not (np.array_equal(flat(nhome), np.broadcast_to(home[:, None], nphase.shape))
@@ -190,7 +191,7 @@ def local_machines(cls_next, cls_pos, init_b):
 
     Returns ``(next [B, L, C], pos [B, L])``; padding rows point to themselves.
     """
-    nb, c = init_b.size, cls_next.shape[1]
+    nb = init_b.size
     k = cls_next.shape[0]
     reach = np.zeros((nb, k), bool)
     reach[np.arange(nb), init_b] = True

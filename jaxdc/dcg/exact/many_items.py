@@ -93,7 +93,8 @@ def game_optimum(env, machines: Machines, state) -> GameOptimum:
     """
     state = jax.device_get(state)
     n, c = env.grid_size, env.grid_size**2
-    if int(state.time) != 0 or _flat(state.pos, n) != 0 or _flat(state.opponent.pos, n) != _flat(state.opponent.home, n):
+    if (int(state.time) != 0 or _flat(state.pos, n) != 0
+            or _flat(state.opponent.pos, n) != _flat(state.opponent.home, n)):
         raise ValueError("state must be a reset state (time 0, collector in the base, opponent at its start)")
     if not math.isinf(machines.energy) and float(state.energy) != machines.energy:
         raise ValueError(f"state.energy {float(state.energy)} differs from the machines' max_energy {machines.energy}")

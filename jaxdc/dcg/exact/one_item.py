@@ -60,8 +60,15 @@ import numpy as np
 
 from jaxdc.core import grid
 from jaxdc.core.memory import check_fits
-from jaxdc.dcg.exact.machine import (MAX_GRID_SIZE, captures, check_params, local_machines, opponent_machine,
-                                     reset_pairs, successors)
+from jaxdc.dcg.exact.machine import (
+    MAX_GRID_SIZE,
+    captures,
+    check_params,
+    local_machines,
+    opponent_machine,
+    reset_pairs,
+    successors,
+)
 
 #: Earliest-collection step of an item that cannot be collected within the step cap.
 NEVER = np.iinfo(np.int32).max

@@ -32,8 +32,8 @@ from jaxdc.core import generators, grid
 from jaxdc.dcp import instances
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.evaluate import evaluate_heuristic, evaluate_learned
-from jaxdc.dcp.navigators import NAVIGATORS
 from jaxdc.dcp.exact.optimal import expected_optimum, solve_single_item
+from jaxdc.dcp.navigators import NAVIGATORS
 
 #: The map sources of a generalisation grid, in report order.
 SOURCES = ("train", "held-out", "thesis")
@@ -226,12 +226,13 @@ def markdown(rows: list[dict], command: str, network: str) -> str:
             f"| {r['source']}: {r['map']} | {r['energy'][0]:g}/{r['energy'][1]:g} | {'yes' if r['inside'] else 'no'} "
             f"| {r['net']['mean']:.2f} ± {r['net']['se']:.2f} | {best['name']} {best['mean']:.2f} "
             f"| {_f(r['ratio'])} | {spec_text} | {one_text} |")
-    lines += ["", "| maps | budgets | settings | ratio mean | ratio min | 1-item share mean |", "|---|---|---:|---:|---:|---:|"]
+    lines += ["", "| maps | budgets | settings | ratio mean | ratio min | 1-item share mean |",
+              "|---|---|---:|---:|---:|---:|"]
     for s in summarise(rows):
         lines.append(f"| {s['source']} | {s['budgets']} | {s['settings']} | {s['ratio_mean']:.3f} | "
                      f"{s['ratio_min']:.3f} | {_f(s['one_item_share_mean'], '.3f')} |")
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["BUDGETS", "SOURCES", "THESIS_TABLES", "Setting", "evaluate_setting", "heat_values", "markdown", "one_item", "run", "settings",
-           "summarise", "thesis_markdown", "thesis_tables", "training_range"]
+__all__ = ["BUDGETS", "SOURCES", "THESIS_TABLES", "Setting", "evaluate_setting", "heat_values", "markdown",
+           "one_item", "run", "settings", "summarise", "thesis_markdown", "thesis_tables", "training_range"]

@@ -15,10 +15,10 @@ from typing import Callable
 import jax
 
 from jaxdc.core import memory
+from jaxdc.dcp.analysis.setting import EnvOptions, Setting, make_env
 from jaxdc.dcp.evaluate import evaluate_heuristic, evaluate_learned, evaluate_optimal, summarize
 from jaxdc.dcp.learned import EQN_EPSILON, NETS
 from jaxdc.dcp.planners import PlannerConfig
-from jaxdc.dcp.analysis.setting import EnvOptions, Setting, make_env
 
 
 @dataclasses.dataclass(frozen=True)

@@ -96,9 +96,9 @@ def run_experiment(rewards, graphs, nodes, alphas, base, seed, builders, cluster
                 t0 = time.perf_counter()
                 done = [0]
 
-                def tick():
-                    done[0] += 1
-                    if done[0] <= nodes:
+                def tick():  # `done` is this builder's: solve_instances below calls tick within the iteration
+                    done[0] += 1  # noqa: B023
+                    if done[0] <= nodes:  # noqa: B023
                         advance(1)
 
                 res = solve_instances(b, "nc", D, beta, psi, gidx, al, progress=tick)

@@ -12,8 +12,8 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import threading
 import sys
+import threading
 import time
 
 from jaxdc.drp.analysis.experiment import experiment_arrays, pgc_plans, progress_units, run_experiment
@@ -88,7 +88,7 @@ def run_parallel(workers, rewards, graphs, nodes, alphas, base, seed, cache, qui
     """:func:`jaxdc.drp.analysis.experiment.run_experiment` split over ``workers`` processes: each takes a group of
     builders (:func:`builder_groups`) for NC and for the PGC plans. ``cache``: each worker turns on the
     persistent XLA compilation cache. Same ``(raw, timing)`` as the one-process experiment
-    (tests/test_drp_parallel.py), ``raw`` sorted by key. On Ctrl-C (or SIGTERM) the worker processes are
+    (tests/drp/analysis/test_parallel.py), ``raw`` sorted by key. On Ctrl-C (or SIGTERM) the worker processes are
     terminated and ``KeyboardInterrupt`` propagates; the workers themselves never see the signal."""
     import multiprocessing as mp
     import queue as queue_mod

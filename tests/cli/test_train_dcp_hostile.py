@@ -1,0 +1,190 @@
+"""Hostile input for `python -m train.dcp` (jaxdc.cli.train_dcp and the run loop behind it): flags, output
+folders, resuming, NaN stops, corrupt checkpoints and Ctrl-C.
+
+Every bad value is refused before any work with a non-zero exit and one line naming the flag (or the file and
+key), the value and the allowed range, without a traceback; no NaN or Infinity reaches a file or stdout; an
+interruption leaves the old files or the complete new set.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import jax.numpy as jnp
+import pytest
+
+from jaxdc import checkpoint
+from jaxdc.agents import a2c
+from jaxdc.cli import train_dcg, train_dcp
+from tests.support.cli_checks import ROOT, checkout_env, refused, wait_for
+
+# 8 updates of 4 envs x 8 steps on a 4x4 grid; one evaluation and checkpoint at the end.
+TINY = ["--net", "linear", "--grid-size", "4", "--total-reward", "6", "--energy", "4", "8", "--risk", "low",
+        "--steps", "256", "--envs", "4", "--t-max", "8", "--eval-every", "256", "--eval-episodes", "8",
+        "--no-progress"]
+DCG = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies", "restricted", "--steps", "256",
+       "--envs", "4", "--t-max", "8", "--eval-every", "256", "--eval-episodes", "8", "--no-progress"]
+
+
+def _strict(path):
+    def refuse(c):
+        raise AssertionError(f"{path}: non-strict JSON constant {c}")
+    with open(path) as f:
+        return json.load(f, parse_constant=refuse)
+
+
+# ----------------------------------------------------------------------------- flags: train.dcp
+
+@pytest.mark.parametrize("extra, needles", [
+    (["--net", "eqn", "--eval-epsilon", "5"], ["--eval-epsilon", "[0, 1]", "5"]),
+    (["--entropy", "inf"], ["--entropy", "inf"]),
+    (["--lr", "nan"], ["--lr", "NaN"]),
+    (["--value-coef", "-1"], ["--value-coef", ">= 0"]),
+    (["--max-grad-norm", "inf"], ["--max-grad-norm", "inf"]),
+    (["--seed", "99999999999999999999"], ["--seed", "4294967295"]),
+    (["--seeds", "0,99999999999999999999"], ["--seeds", "4294967295"]),
+    (["--steps", "1000000000000"], ["--steps", "2147483647"]),
+    (["--max-steps", "3000000000"], ["--max-steps", "2147483647"]),
+    (["--energy", "inf", "inf"], ["--energy", "finite", "inf"]),
+    (["--energy", "1e40", "1e40"], ["--energy", "16777216"]),
+    (["--energy", "nan", "8"], ["--energy", "NaN"]),
+    (["--grid-size", "1"], ["--grid-size", ">= 2", "1"]),
+    (["--grid-size", "0"], ["--grid-size", ">= 2", "0"]),
+])
+def test_train_dcp_refuses_bad_flags(extra, needles, tmp_path, capsys):
+    out = tmp_path / "run"
+    refused(train_dcp.main, TINY + ["--out", str(out)] + extra, capsys, *needles)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("cli, argv, needles", [
+    (train_dcp, TINY + ["--eval-epsilon", "0.1"], ["--eval-epsilon", "--net eqn only", "'linear'"]),
+    (train_dcp, TINY + ["--target-every", "64"], ["--target-every", "--net eqn only"]),
+    (train_dcg, DCG + ["--alpha", "0.01"], ["--alpha", "--net emnn only", "'vnn'"]),
+])
+def test_a_flag_that_does_not_apply_is_refused_not_ignored(cli, argv, needles, tmp_path, capsys):
+    out = tmp_path / "run"
+    refused(cli.main, argv + ["--out", str(out)], capsys, *needles)
+    assert not out.exists()
+
+
+def test_train_dcp_refuses_a_batch_too_big_for_memory_before_compiling(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**20))
+    out = tmp_path / "run"
+    refused(train_dcp.main, TINY + ["--out", str(out), "--envs", "4096", "--steps", "65536"], capsys,
+            "--envs", "--t-max", "MiB")
+    assert not (out / "config.json").exists()
+
+
+def test_train_dcp_refuses_evaluation_episodes_too_many_for_memory(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**24))
+    out = tmp_path / "run"
+    refused(train_dcp.main, TINY + ["--out", str(out), "--eval-episodes", "100000000"], capsys,
+            "100000000 evaluation episodes", "lower the number of episodes")
+    assert not (out / "config.json").exists()
+
+
+def test_train_dcp_out_under_a_file_is_refused_before_work(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    refused(train_dcp.main, TINY + ["--out", str(blocker / "run")], capsys, "--out", "is a file")
+    assert blocker.read_text() == "x"
+
+
+def test_train_dcp_tensorboard_folder_blocked_by_a_file(tmp_path, capsys):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "tb").write_text("x")
+    refused(train_dcp.main, TINY + ["--out", str(out), "--tensorboard"], capsys, "--tensorboard", "tb")
+    assert sorted(os.listdir(out)) == ["tb"]
+
+
+def test_train_dcp_read_only_out_is_refused(read_only_folder, capsys):
+    refused(train_dcp.main, TINY + ["--out", str(read_only_folder / "run")], capsys, "--out", "not writable")
+    assert os.listdir(read_only_folder) == []
+
+
+# ----------------------------------------------------------------------------- runs: resume, NaN, corrupt
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    out = str(tmp_path_factory.mktemp("hostile") / "tiny")
+    assert train_dcp.main(TINY + ["--out", out]) == 0
+    return out
+
+
+def test_run_files_are_strict_json(finished):
+    meta = _strict(os.path.join(finished, "config.json"))
+    assert meta["energy"] == [4.0, 8.0]
+
+
+def test_resume_mismatch_names_the_differing_keys(finished, capsys):
+    err = refused(train_dcp.main, TINY + ["--out", finished, "--resume", "--lr", "0.003"], capsys,
+                  "algorithm.lr: checkpoint has 0.0001, this run has 0.003")
+    assert "algorithm.gamma" not in err
+
+
+def test_resume_of_a_finished_run_says_so(finished, capsys):
+    assert train_dcp.main(TINY + ["--out", finished, "--resume"]) == 0
+    err = capsys.readouterr().err
+    assert "already finished" in err and os.path.join(finished, "checkpoints") in err
+
+
+@pytest.mark.filterwarnings("error::pytest.PytestUnraisableExceptionWarning")
+def test_a_corrupt_checkpoint_is_one_clear_error(finished, tmp_path, capsys):
+    out = str(tmp_path / "corrupt")
+    shutil.copytree(finished, out)
+    for root, _, files in os.walk(os.path.join(out, "checkpoints")):
+        if os.path.basename(root) == "d":
+            for name in files:
+                with open(os.path.join(root, name), "wb") as f:
+                    f.write(b"\x00garbage")
+    err = refused(train_dcp.main, TINY + ["--out", out, "--resume"], capsys, "corrupt", "checkpoints")
+    assert "Event loop is closed" not in err and "tensorstore_spec" not in err
+
+
+def test_nan_stop_before_any_checkpoint_says_none_exists(tmp_path, monkeypatch, capsys):
+    loss = a2c.a2c_loss
+
+    def nan_loss(*args, **kwargs):
+        value, aux = loss(*args, **kwargs)
+        return value * jnp.nan, dict(aux, loss=value * jnp.nan)
+
+    monkeypatch.setattr(a2c, "a2c_loss", nan_loss)
+    out = tmp_path / "nan"
+    assert train_dcp.main(TINY + ["--out", str(out)]) == train_dcp.EXIT_NAN
+    err = capsys.readouterr().err
+    assert "No checkpoint was written yet" in err and "last good checkpoint" not in err
+    assert checkpoint.steps(out / "checkpoints") == [] and not (out / "metrics.csv").exists()
+    _strict(out / "config.json")
+
+
+# ----------------------------------------------------------------------------- Ctrl-C (subprocesses)
+
+
+def test_ctrl_c_in_train_dcp_exits_130_and_leaves_a_consistent_run(tmp_path):
+    out = tmp_path / "run"
+    argv = [a for a in TINY]
+    argv[argv.index("--steps") + 1] = "2000000"
+    argv[argv.index("--eval-every") + 1] = "64"
+    proc = subprocess.Popen([sys.executable, "-m", "train.dcp", *argv, "--out", str(out)], cwd=ROOT, env=checkout_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert wait_for(lambda: checkpoint.steps(out / "checkpoints"), 60), proc.stderr
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines() == ["python -m train.dcp: interrupted"], err
+    steps = checkpoint.steps(out / "checkpoints")
+    with open(out / "metrics.csv", newline="") as f:
+        updates = [int(r["updates"]) for r in csv.DictReader(f)]
+    assert steps and updates[: len(updates)] == sorted(updates) and steps[-1] <= updates[-1]
+    assert not [n for n in os.listdir(out) if n.startswith(".tmp-")]
+    _strict(out / "config.json")

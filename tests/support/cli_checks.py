@@ -1,0 +1,66 @@
+"""Checks shared by the command-line tests: a refused command line, a tiny finished training run, the checkout's
+subprocesses (``python -m train.*`` from the repository root)."""
+
+import os
+import time
+
+#: The repository root: the checkout whose ``train/`` and ``eval/`` shims the subprocess tests start.
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def checkout_env() -> dict:
+    """The environment of a subprocess of the checkout: :data:`ROOT` first on ``PYTHONPATH``."""
+    return dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+
+
+def wait_for(predicate, timeout: float) -> bool:
+    """Whether ``predicate()`` turned true within ``timeout`` seconds (polled every 0.1 s)."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        if predicate():
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def refused(main, argv, capsys, *needles, code=2) -> str:
+    """``main(argv)`` exits ``code`` (argparse's SystemExit or a returned status) with an error naming every one
+    of ``needles`` (case-insensitive), no traceback and nothing on stdout; the error text."""
+    try:
+        rc = main(argv)
+    except SystemExit as e:
+        rc = e.code
+    got = capsys.readouterr()
+    assert rc == code, got
+    assert "Traceback" not in got.err
+    for n in needles:
+        assert n.lower() in got.err.lower(), (n, got.err)
+    assert got.out == ""
+    return got.err
+
+
+def tiny_run(main, argv, tmp_path_factory) -> str:
+    """The folder of a training run ``main(argv + ["--out", folder])`` that finished (exit 0)."""
+    out = str(tmp_path_factory.mktemp("runs") / "tiny")
+    assert main(argv + ["--out", out]) == 0
+    return out
+
+
+def resumes_exactly(main, argv, finished: str, tmp_path, last_step: int, restore) -> str:
+    """A copy of the ``finished`` run without its last checkpoint (as if killed after the one before) resumed
+    with ``--resume`` ends with the same training state (``restore(folder)``); the resumed folder."""
+    import os
+    import shutil
+
+    import jax
+    import numpy as np
+
+    out = str(tmp_path / "killed")
+    shutil.copytree(finished, out)
+    shutil.rmtree(os.path.join(out, "checkpoints", str(last_step)))
+    assert main(argv + ["--out", out, "--resume"]) == 0
+    a, b = restore(finished), restore(out)
+    assert int(a.update) == int(b.update) == last_step
+    for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    return out
