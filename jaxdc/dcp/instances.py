@@ -22,7 +22,7 @@ network is evaluated on a thesis map exactly like any other.
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable
+from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
@@ -34,7 +34,7 @@ from jaxdc.core.memory import check_fits
 from jaxdc.core.paths import PathTable, safest_paths
 from jaxdc.core.validate import check_float
 from jaxdc.dcp import navigators
-from jaxdc.dcp.env import DCP, EnvParams
+from jaxdc.dcp.env import DCP, EnvParams, EnvState
 from jaxdc.dcp.planners import PlannerConfig
 
 #: Maps whose tables are computed in one batched call (bounds the memory of the Dijkstra batch).
@@ -46,7 +46,7 @@ def table_bytes(maps: int, grid_size: int) -> int:
     return 12 * maps * grid_size**4
 
 
-def check_maps(maps, grid_size: int) -> np.ndarray:
+def check_maps(maps: Any, grid_size: int) -> np.ndarray:
     """``maps`` as a validated ``[M, N, N]`` float32 array: each map as :func:`jaxdc.core.grid.validate_risk_map`
     accepts, and no risk of 1 (a certain loss: the safest paths are then undefined)."""
     arr = np.asarray(maps, dtype=np.float32) if not isinstance(maps, np.ndarray) else maps.astype(np.float32)
@@ -63,7 +63,7 @@ def check_maps(maps, grid_size: int) -> np.ndarray:
     return arr
 
 
-def check_energy_range(energy_range) -> tuple[float, float]:
+def check_energy_range(energy_range: Any) -> tuple[float, float]:
     """``(low, high)``: integer maximum energies with ``2 <= low <= high`` (finite)."""
     try:
         low, high = energy_range
@@ -90,7 +90,8 @@ def compute_tables(maps: np.ndarray) -> PathTable:
     return jax.tree_util.tree_map(lambda *xs: jnp.asarray(np.concatenate(xs)), *parts)
 
 
-def instance_params(env: DCP, maps, energy_range, init_fraction: float = 0.5, max_steps: int = 1000) -> EnvParams:
+def instance_params(env: DCP, maps: Any, energy_range: Any, init_fraction: float = 0.5,
+                    max_steps: int = 1000) -> EnvParams:
     """Params whose episodes draw their risk map from ``maps`` and their maximum energy from ``energy_range``.
 
     Args:
@@ -111,7 +112,7 @@ def instance_params(env: DCP, maps, energy_range, init_fraction: float = 0.5, ma
                         energy_range=jnp.asarray([low, high], jnp.float32), init_fraction=jnp.float32(frac))
 
 
-def fixed_instance(env: DCP, risk, energy, max_steps: int = 1000) -> EnvParams:
+def fixed_instance(env: DCP, risk: Any, energy: Any, max_steps: int = 1000) -> EnvParams:
     """One map and one budget ``(initial, maximum)`` through the per-episode path (the thesis' settings for a
     network that reads the instance)."""
     init_e, max_e = (float(e) for e in energy)
@@ -119,7 +120,7 @@ def fixed_instance(env: DCP, risk, energy, max_steps: int = 1000) -> EnvParams:
     return instance_params(env, arr, (max_e, max_e), init_e / max_e, max_steps)
 
 
-def state_table(params: EnvParams, state, shared: PathTable | None = None) -> PathTable:
+def state_table(params: EnvParams, state: EnvState, shared: PathTable | None = None) -> PathTable:
     """The safest-path table of ``state``'s episode: its map's row of ``params.tables``, or ``shared`` (the one
     table of params without per-episode maps)."""
     if params.maps is None:
@@ -129,9 +130,9 @@ def state_table(params: EnvParams, state, shared: PathTable | None = None) -> Pa
     return jax.tree_util.tree_map(lambda t: t[state.map_id], params.tables)
 
 
-def state_params(params: EnvParams, state) -> EnvParams:
+def state_params(params: EnvParams, state: EnvState) -> EnvParams:
     """``params`` with ``risk`` and the energies of ``state``'s episode (what the planners and heuristics read)."""
-    if params.maps is None:
+    if params.maps is None or state.max_energy is None:
         return params
     return dataclasses.replace(params, risk=params.maps[state.map_id], max_energy=state.max_energy)
 

@@ -12,6 +12,7 @@ know no problem module: they are keyed by the problem's name (``"dcp"``,
 from __future__ import annotations
 
 import dataclasses
+from typing import Any, cast
 
 import flax.linen as nn
 
@@ -40,12 +41,12 @@ class NetEntry:
     @property
     def uses_heuristics(self) -> bool:
         """Whether the network reads the heuristics of section 4.4.3 (a trainer computes them only then)."""
-        return bool(self.cls.uses_heuristics)
+        return bool(cast(Any, self.cls).uses_heuristics)  # a class attribute flax's Module type does not declare
 
     @property
     def has_aux(self) -> bool:
         """Whether the network has the opponent-action head (EMNN, OMN + CoNN; section 5.4)."""
-        return bool(self.cls.has_aux)
+        return bool(cast(Any, self.cls).has_aux)
 
 
 #: The DCP's networks (section 4.5), in the order of the thesis' tables: ENN, the linear learner, the CNN, EQN.
