@@ -266,3 +266,31 @@ def check_outputs(out: str, tensorboard: bool = False) -> None:
 def fmt(x: float | None, spec: str = ".3f") -> str:
     """``x`` formatted with ``spec``, or ``n/a`` for an undefined statistic (``None``)."""
     return "n/a" if x is None else format(x, spec)
+
+
+def train_from_command_line(parser: argparse.ArgumentParser, argv: list[str] | None, problem: str,
+                            from_metadata: Any, settle: Callable[[argparse.Namespace], tuple[Any, RunControl]],
+                            make_run: Callable[[Any, RunControl], Any],
+                            check_more: Callable[[argparse.Namespace], None] | None = None) -> tuple | None:
+    """Parse ``argv`` (with ``--config``), settle it, check the outputs (and ``check_more``), build the run and
+    train it: ``(args, run, result)``, or ``None`` after ``--list-configs``. A bad value or combination is a usage
+    error (exit 2) naming the flag."""
+    from jaxdc.io import enable_compilation_cache
+    from jaxdc.training.fields import SettingError
+
+    args = parse_with_config(parser, argv, problem, from_metadata)
+    if args is None:  # --list-configs
+        return None
+    try:
+        settings, control = settle(args)
+        check_outputs(control.out, control.tensorboard)
+        if check_more is not None:
+            check_more(args)
+        enable_compilation_cache()
+        run = make_run(settings, control)
+        result = run.train()
+    except SettingError as e:
+        parser.error(e.render())
+    except (ValueError, TypeError, MemoryError) as e:
+        parser.error(str(e))
+    return args, run, result

@@ -51,17 +51,15 @@ from jaxdc.cli.train_common import (
     a2c_settings,
     add_a2c_arguments,
     add_config_arguments,
-    check_outputs,
     fmt,
-    parse_with_config,
     run_control,
     seed_tag,
+    train_from_command_line,
     training_energy,
 )
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
-from jaxdc.io import check_output_path, enable_compilation_cache
+from jaxdc.io import check_output_path
 from jaxdc.training.dcg import NETS, DCGRun, DCGSettings, settings_from_metadata
-from jaxdc.training.fields import SettingError
 
 #: EMNN's default weight of Eq. 5.1 (section 5.5.2).
 ALPHA = 0.001
@@ -137,22 +135,16 @@ def main(argv=None) -> int:
     or combination is a usage error (exit 2) naming the flag.
     """
     parser = build_parser()
-    args = parse_with_config(parser, argv, "dcg", settings_from_metadata)
-    if args is None:  # --list-configs
-        return 0
-    try:
-        settings, control = settle(args)
-        check_outputs(control.out, control.tensorboard)
+
+    def check_ship(args: argparse.Namespace) -> None:
         if args.ship is not None:
             blob = ship_path(args)
             check_output_path(blob if blob.endswith(".msgpack") else blob + ".msgpack", "--ship")
-        enable_compilation_cache()
-        run = DCGRun(settings, control)
-        result = run.train()
-    except SettingError as e:
-        parser.error(e.render())
-    except (ValueError, TypeError, MemoryError) as e:
-        parser.error(str(e))
+
+    trained = train_from_command_line(parser, argv, "dcg", settings_from_metadata, settle, DCGRun, check_ship)
+    if trained is None:  # --list-configs
+        return 0
+    args, run, result = trained
     if result["status"] == "nan":
         return EXIT_NAN
     for seed, r in result.get("per_seed", []):

@@ -38,18 +38,15 @@ from jaxdc.cli.train_common import (
     a2c_settings,
     add_a2c_arguments,
     add_config_arguments,
-    check_outputs,
     fmt,
     learner_options_set,
-    parse_with_config,
     run_control,
     seed_tag,
+    train_from_command_line,
     training_energy,
 )
 from jaxdc.core import generators, grid
-from jaxdc.io import enable_compilation_cache
 from jaxdc.training.dcp import NETS, DCPRun, DCPSettings, settings_from_metadata
-from jaxdc.training.fields import SettingError
 
 #: EQN's default environment steps between target-network copies (``QConfig.target_every``).
 TARGET_EVERY = QConfig.target_every
@@ -136,19 +133,10 @@ def main(argv=None) -> int:
     Every flag, the run folder and its ``tb/`` are checked before any work; a bad value or combination is a
     usage error (exit 2) naming the flag.
     """
-    parser = build_parser()
-    args = parse_with_config(parser, argv, "dcp", settings_from_metadata)
-    if args is None:  # --list-configs
+    trained = train_from_command_line(build_parser(), argv, "dcp", settings_from_metadata, settle, DCPRun)
+    if trained is None:  # --list-configs
         return 0
-    try:
-        settings, control = settle(args)
-        check_outputs(control.out, control.tensorboard)
-        enable_compilation_cache()
-        result = DCPRun(settings, control).train()
-    except SettingError as e:
-        parser.error(e.render())
-    except (ValueError, TypeError, MemoryError) as e:
-        parser.error(str(e))
+    _, _, result = trained
     if result["status"] == "nan":
         return EXIT_NAN
     for seed, r in result.get("per_seed", []):

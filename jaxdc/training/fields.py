@@ -74,7 +74,7 @@ class SettingError(ValueError):
     """A bad setting: the text names the settings as fields (``eval_every``); a command line shows it with its
     flags (:meth:`render`).
 
-    ``template`` is a :meth:`str.format` text whose ``{0}``, ``{1}`` ... are the ``fields`` (literal braces
+    ``template`` is a ``str.format`` text whose ``{0}``, ``{1}`` ... are the ``fields`` (literal braces
     doubled; :meth:`text` escapes a value).
     """
 
