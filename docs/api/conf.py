@@ -52,11 +52,12 @@ nitpicky = True
 # The build is offline (no intersphinx), so names of other libraries cannot resolve: they render as
 # text (the standard library's too, e.g. ``argparse.ArgumentParser`` in the CLI signatures). Private
 # helpers (``_name``) are not in the reference by design.
-_THIRD_PARTY = (r"(argparse|pathlib|collections|typing|jax|jaxlib|jnp|numpy|np|flax|nn|optax|orbax|chex|gymnasium|"
+_THIRD_PARTY = (r"(argparse|os|subprocess|pathlib|collections|typing|jax|jaxlib|jnp|numpy|np|flax|nn|optax|orbax|chex|gymnasium|"
                 r"stable_baselines3|matplotlib|PIL|torch|tqdm)")
 nitpick_ignore_regex = [
     (r"py:.*", _THIRD_PARTY + r"(\..*)?"),
     (r"py:.*", r"(.*\.)?_[A-Za-z0-9].*"),
+    (r"py:class", r"tuple\[.*"),  # a pair annotation split at its comma in a rendered signature
 ]
 
 # Napoleon reads the first line of a data/attribute docstring as ``type: description`` (Google

@@ -20,7 +20,7 @@ leaves, so ``jax.vmap`` can map over them.
 What is specific to one problem travels with its environment, so generic code
 (the wrappers, the viewer) calls hooks instead of testing the type: the
 outcome names (:attr:`Environment.outcomes`), the state and parameter types
-(:attr:`Environment.state_type`, :attr:`Environment.params_type`), the text
+(``Environment.state_type``, ``Environment.params_type``), the text
 picture (:meth:`Environment.render_ansi`) and the layers of a drawn frame
 (:meth:`Environment.scene`, a :class:`~jaxdc.core.scene.Scene`);
 :func:`writes` says whether an environment writes a hook.

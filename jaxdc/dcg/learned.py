@@ -32,7 +32,7 @@ from jaxdc.dcg.env import DCG
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.nets.registry import DCG_NETS, build
 
-#: Networks of section 5.4, in the order of the thesis' figures (the registry :data:`jaxdc.nets.DCG_NETS`).
+#: Networks of section 5.4, in the order of the thesis' figures (the registry :data:`jaxdc.nets.registry.DCG_NETS`).
 NETS = tuple(DCG_NETS)
 #: The standard setting of section 5.5.1 (and ``train.dcg``'s defaults) for metadata that lacks a key.
 DEFAULT_SETTING = {"grid_size": 5, "total_reward": 10, "energy": 15.0, "max_steps": 100,

@@ -28,7 +28,7 @@ from jaxdc import pretrained
 from jaxdc.core.tree_check import check_like
 from jaxdc.nets.registry import DCP_NETS, NSTEP_Q, build
 
-#: Networks that have a learned DCP policy (the registry :data:`jaxdc.nets.DCP_NETS`: ``enn``, ``linear``,
+#: Networks that have a learned DCP policy (the registry :data:`jaxdc.nets.registry.DCP_NETS`: ``enn``, ``linear``,
 #: ``cnn``: A2C; ``eqn``: n-step Q).
 NETS = tuple(DCP_NETS)
 #: The evaluation epsilon of EQN's epsilon-greedy policy (section 4.5.5).

@@ -10,7 +10,7 @@ a trainer reads, :class:`jaxdc.agents.common.Network`: ``num_actions``,
 flax fields).
 
 The networks of each problem are registered by name in :mod:`jaxdc.nets.registry`
-(:data:`DCP_NETS`, :data:`DCG_NETS`: class and training algorithm), which
+(:data:`~jaxdc.nets.registry.DCP_NETS`, :data:`~jaxdc.nets.registry.DCG_NETS`: class and training algorithm), which
 loading, training and metadata read. The DCG networks of section 5.4 (:func:`make_dcg_net`) read
 DCG observations ``[B, N, N, 2 + k]`` and use no heuristics; EMNN and
 OMN + CoNN (``has_aux = True``) return a third output, the opponent-action
@@ -31,7 +31,7 @@ from jaxdc.nets.omn_conn import OMN, OMNCoNN
 from jaxdc.nets.registry import A2C, DCG_NETS, DCP_NETS, NSTEP_Q, REGISTRIES, NetEntry, build
 from jaxdc.nets.vnn import IMNN, VNN
 
-#: The DCP's actor-critic networks (trained by A2C) by name: the ``"a2c"`` entries of :data:`DCP_NETS`.
+#: The DCP's actor-critic networks (trained by A2C) by name: the ``"a2c"`` entries of :data:`~jaxdc.nets.registry.DCP_NETS`.
 ACTOR_CRITICS = {name: e.cls for name, e in DCP_NETS.items() if e.algorithm == A2C}
 
 
@@ -43,7 +43,7 @@ def make_net(name: str, num_heuristics: int = 10, num_actions: int = 9) -> nn.Mo
 
 
 def make_dcg_net(name: str, history: int = 10, num_actions: int = 9) -> nn.Module:
-    """The DCG network called ``name`` (one of :data:`DCG_NETS`, section 5.4) for a history of ``k = history``.
+    """The DCG network called ``name`` (one of :data:`~jaxdc.nets.registry.DCG_NETS`, section 5.4) for a history of ``k = history``.
 
     VNN reads only the current state and ignores ``history``; the others need ``history >= 1``
     (section 5.5.2: ``k = 10``).

@@ -33,7 +33,7 @@ from jaxdc.nets import DCG_NETS, build
 from jaxdc.training.fields import SettingError
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
 
-#: The networks a DCG run trains (the names of the registry :data:`jaxdc.nets.DCG_NETS`).
+#: The networks a DCG run trains (the names of the registry :data:`jaxdc.nets.registry.DCG_NETS`).
 NETS = tuple(DCG_NETS)
 LOSS_METRICS = ("loss", "policy_loss", "value_loss", "entropy", "aux_loss", "aux_accuracy")
 CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", *LOSS_METRICS, "train_episodes",
