@@ -109,8 +109,8 @@ BEYOND.update({  # the setting of the faithful ENN of the same tables, then the 
     # One network for every map and budget (docs/generalisation.md): each training episode draws its risk map from
     # the first 1,024 maps of the 'mix' generator (never a held-out seed) and its maximum energy from 8..48
     # (initial: half), and the network reads the general observation (risk map and budget planes).
-    "enn_general": _dcp("4.3-4.8 and unseen maps and budgets (beyond the thesis: per-episode maps and budgets, the "
-                        "general observation, the PPO-style option, 4M steps)", "enn", min_total_reward=1,
+    "enn_general": _dcp("every map and budget (beyond the thesis: per-episode maps and budgets, the general "
+                        "observation, the PPO-style option, 4M steps)", "enn", min_total_reward=1,
                         observation="general", risk_maps="mix", map_seeds=(0, 1024), energy_range=(8.0, 48.0),
                         **{**PPO, "total_steps": 4_000_000, "eval_every": 500_000, "eval_episodes": 2000}),
 })

@@ -26,6 +26,7 @@ import re
 from jaxdc import pretrained
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.analysis.table_learner import check_learner
+from jaxdc.dcp.learned import observation_of
 
 #: The mark in a shipped network's ``tables`` metadata that it goes beyond the thesis' recipe.
 BEYOND = re.compile(r"\(beyond the thesis:\s*(?P<differs>[^)]*)\)")
@@ -66,6 +67,8 @@ def candidates(spec, grid_size: int | None = None) -> list[Candidate]:
         meta = pretrained.read_metadata(pretrained.shipped("dcp", name))
         how = differs(meta)
         if meta.get("net") != net or how is None or spec.name not in tables_of(meta):
+            continue
+        if observation_of(meta) != "thesis":  # it reads another observation than a table's environment gives
             continue
         learned = learned_lib.load(pretrained.shipped("dcp", name), net=net, grid_size=grid_size)
         try:
