@@ -52,7 +52,8 @@ nitpicky = True
 # The build is offline (no intersphinx), so names of other libraries cannot resolve: they render as
 # text (the standard library's too, e.g. ``argparse.ArgumentParser`` in the CLI signatures). Private
 # helpers (``_name``) are not in the reference by design.
-_THIRD_PARTY = (r"(argparse|os|subprocess|pathlib|collections|typing|jax|jaxlib|jnp|numpy|np|flax|nn|optax|orbax|chex|gymnasium|"
+_THIRD_PARTY = (r"(argparse|os|subprocess|pathlib|collections|typing|jax|jaxlib|jnp|numpy|np|flax|nn|optax|"
+                 r"orbax|chex|gymnasium|"
                 r"stable_baselines3|matplotlib|PIL|torch|tqdm)")
 nitpick_ignore_regex = [
     (r"py:.*", _THIRD_PARTY + r"(\..*)?"),

@@ -48,16 +48,6 @@ def _check_risk_range(owner: str, low: float, high: float) -> tuple[float, float
     return low, high
 
 
-def _check_skewed(owner: str, low: float, high: float, power: float) -> None:
-    _check_risk_range(owner, low, high)
-    check_float(f"{owner}.power", power, 0.0, 100.0, low_open=True)
-
-
-def _skewed(key: jax.Array, shape: tuple[int, ...], low: float, high: float, power: float) -> jax.Array:
-    """``low + (high - low) * u**power`` for ``u`` uniform on ``[0, 1]``: risks skewed towards ``low``."""
-    return low + (high - low) * jax.random.uniform(key, shape) ** power
-
-
 def _with_base(risk: jax.Array) -> jax.Array:
     """``risk`` (float32) with the base cell ``(0, 0)`` at 0."""
     return risk.astype(jnp.float32).at[0, 0].set(0.0)
@@ -104,39 +94,46 @@ class Preset(RiskGenerator):
 
 
 @dataclasses.dataclass(frozen=True)
-class Rings(RiskGenerator):
-    """Thesis-like maps (Table 4.2's shape): four rings of growing distance from the base, ring ``i`` at risk
-    ``rho_i``; the four values are ``low + (high - low) * u**power`` for ``u`` uniform on ``[0, 1]``, sorted, so
-    risk grows outwards (``power > 1`` favours small risks, as the thesis' maps do)."""
-
-    low: float = 0.0
-    high: float = 0.7
-    power: float = 2.0
-    name = "rings"
-
-    def __post_init__(self) -> None:
-        _check_skewed("Rings", self.low, self.high, self.power)
-
-    def sample(self, key: jax.Array, grid_size: int) -> jax.Array:
-        rho = jnp.sort(_skewed(key, (4,), self.low, self.high, self.power))
-        return _with_base(rho[jnp.asarray(grid.ring_index(grid_size))])
-
-
-@dataclasses.dataclass(frozen=True)
-class UniformRisk(RiskGenerator):
-    """Every cell's risk independently ``low + (high - low) * u**power``, ``u`` uniform on ``[0, 1]`` (base 0;
-    ``power = 1``: uniform on ``[low, high]``)."""
+class SkewedRisk(RiskGenerator):
+    """Base of the generators whose risks are ``low + (high - low) * u**power`` for ``u`` uniform on ``[0, 1]``
+    (``power = 1``: uniform on ``[low, high]``; ``power > 1`` favours small risks, as the thesis' maps do)."""
 
     low: float = 0.0
     high: float = 0.5
     power: float = 1.0
-    name = "uniform"
 
     def __post_init__(self) -> None:
-        _check_skewed("UniformRisk", self.low, self.high, self.power)
+        owner = type(self).__name__
+        _check_risk_range(owner, self.low, self.high)
+        check_float(f"{owner}.power", self.power, 0.0, 100.0, low_open=True)
+
+    def draw(self, key: jax.Array, shape: tuple[int, ...]) -> jax.Array:
+        """Risks of ``shape``, skewed as the class says."""
+        return self.low + (self.high - self.low) * jax.random.uniform(key, shape) ** self.power
+
+
+@dataclasses.dataclass(frozen=True)
+class Rings(SkewedRisk):
+    """Thesis-like maps (Table 4.2's shape): four rings of growing distance from the base, ring ``i`` at risk
+    ``rho_i``; the four values are drawn skewed (:class:`SkewedRisk`) and sorted, so risk grows outwards."""
+
+    high: float = 0.7
+    power: float = 2.0
+    name = "rings"
 
     def sample(self, key: jax.Array, grid_size: int) -> jax.Array:
-        return _with_base(_skewed(key, (grid_size, grid_size), self.low, self.high, self.power))
+        rho = jnp.sort(self.draw(key, (4,)))
+        return _with_base(rho[jnp.asarray(grid.ring_index(grid_size))])
+
+
+@dataclasses.dataclass(frozen=True)
+class UniformRisk(SkewedRisk):
+    """Every cell's risk drawn independently (:class:`SkewedRisk`; base 0)."""
+
+    name = "uniform"
+
+    def sample(self, key: jax.Array, grid_size: int) -> jax.Array:
+        return _with_base(self.draw(key, (grid_size, grid_size)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -291,4 +288,5 @@ def make_maps(gen: RiskGenerator, seeds: SeedSet, grid_size: int) -> np.ndarray:
 
 
 __all__ = ["GENERATORS", "MAX_GENERATED_RISK", "TEST_SEED_START", "Bumps", "Mixture", "Preset", "RiskGenerator",
-           "Rings", "SeedSet", "UniformRisk", "check_disjoint", "generator", "make_maps", "map_key", "split_seeds"]
+           "Rings", "SeedSet", "SkewedRisk", "UniformRisk", "check_disjoint", "generator", "make_maps", "map_key",
+           "split_seeds"]

@@ -31,7 +31,8 @@ from jaxdc.nets.omn_conn import OMN, OMNCoNN
 from jaxdc.nets.registry import A2C, DCG_NETS, DCP_NETS, NSTEP_Q, REGISTRIES, NetEntry, build
 from jaxdc.nets.vnn import IMNN, VNN
 
-#: The DCP's actor-critic networks (trained by A2C) by name: the ``"a2c"`` entries of :data:`~jaxdc.nets.registry.DCP_NETS`.
+#: The DCP's actor-critic networks (trained by A2C) by name: the ``"a2c"`` entries of
+#: :data:`~jaxdc.nets.registry.DCP_NETS`.
 ACTOR_CRITICS = {name: e.cls for name, e in DCP_NETS.items() if e.algorithm == A2C}
 
 
@@ -43,7 +44,8 @@ def make_net(name: str, num_heuristics: int = 10, num_actions: int = 9) -> nn.Mo
 
 
 def make_dcg_net(name: str, history: int = 10, num_actions: int = 9) -> nn.Module:
-    """The DCG network called ``name`` (one of :data:`~jaxdc.nets.registry.DCG_NETS`, section 5.4) for a history of ``k = history``.
+    """The DCG network called ``name`` (one of :data:`~jaxdc.nets.registry.DCG_NETS`, section 5.4) for a history
+    of ``k = history``.
 
     VNN reads only the current state and ignores ``history``; the others need ``history >= 1``
     (section 5.5.2: ``k = 10``).

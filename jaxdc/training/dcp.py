@@ -29,7 +29,8 @@ from jaxdc.nets import DCP_NETS, NSTEP_Q, build
 from jaxdc.training.instances import check_instance_settings, instance_metadata, training_params
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
 
-#: Networks (the registry :data:`jaxdc.nets.registry.DCP_NETS`): the actor-critics train with A2C, EQN with n-step Q-learning.
+#: Networks (the registry :data:`jaxdc.nets.registry.DCP_NETS`): the actor-critics train with A2C, EQN with
+#: n-step Q-learning.
 NETS = tuple(DCP_NETS)
 LOSS_METRICS = ("loss", "policy_loss", "value_loss", "entropy", "q_mean", "epsilon")
 CSV_FIELDS = ("env_steps", "updates", "wall_s", "steps_per_s", "lr", *LOSS_METRICS, "train_episodes",

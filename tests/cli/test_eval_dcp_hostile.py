@@ -30,16 +30,7 @@ from jaxdc.dcp.analysis.setting import Setting
 from jaxdc.dcp.analysis.table_results import markdown_table
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.dcp.planners import PlannerConfig
-from tests.support.cli_checks import refused
-
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-
-def _strict(text):
-    """Parse JSON refusing NaN and Infinity."""
-    def refuse(c):
-        raise AssertionError(f"non-strict JSON constant {c}")
-    return json.loads(text, parse_constant=refuse)
+from tests.support.cli_checks import ROOT, refused, strict_json
 
 
 def _files(folder):
@@ -225,7 +216,7 @@ def test_dcp_undefined_rpe_is_null_and_a_dash(tmp_path, capsys):
             "--episodes", "50"]
     assert cli.main(argv + ["--json"]) == 0
     out = capsys.readouterr().out
-    obj = _strict(out)
+    obj = strict_json(out)
     assert obj["rpe"] == {"mean": None, "sd": None, "undefined": "no episode consumed energy"}
     assert cli.main(argv) == 0
     table = capsys.readouterr().out
@@ -237,7 +228,7 @@ def test_dcp_summarize_empty_rpe_api():
                                   time=np.array([1, 2]))
     s = summarize(final)
     assert s["rpe"]["mean"] is None and s["rpe"]["undefined"]
-    _strict(json.dumps(s))
+    strict_json(json.dumps(s))
     assert "—" in markdown_table(None, {"p": s})
 
 

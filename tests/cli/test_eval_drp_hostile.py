@@ -20,16 +20,7 @@ from jaxdc.cli import eval_drp as cli
 from jaxdc.core.validate import SEED_MAX
 from jaxdc.drp.analysis import cache
 from jaxdc.drp.analysis.summary import markdown_tables
-from tests.support.cli_checks import refused
-
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-
-def _strict(text):
-    """Parse JSON refusing NaN and Infinity."""
-    def refuse(c):
-        raise AssertionError(f"non-strict JSON constant {c}")
-    return json.loads(text, parse_constant=refuse)
+from tests.support.cli_checks import ROOT, refused, strict_json
 
 
 def _refused(argv, capsys, *needles, code=2):
@@ -123,8 +114,8 @@ def test_figure_files_land_together_or_not_at_all(tmp_path, capsys, monkeypatch)
     assert cli.main(argv) == 0
     names = sorted(os.listdir(out))
     assert [n.rsplit(".", 1)[1] for n in names] == ["csv", "json", "png"]
-    _strict(capsys.readouterr().out)
-    _strict((out / [n for n in names if n.endswith(".json")][0]).read_text())
+    strict_json(capsys.readouterr().out)
+    strict_json((out / [n for n in names if n.endswith(".json")][0]).read_text())
 
 
 def test_figure_undefined_normaliser_is_null_with_a_reason(tmp_path, capsys, monkeypatch):
@@ -132,7 +123,7 @@ def test_figure_undefined_normaliser_is_null_with_a_reason(tmp_path, capsys, mon
     out = tmp_path / "o"
     assert cli.main(["--out", str(out), "figure", "3.1", "--quick", "--alphas", "0,10", "--quiet"]) == 0
     capsys.readouterr()
-    data = _strict((out / next(n for n in os.listdir(out) if n.endswith(".json"))).read_text())
+    data = strict_json((out / next(n for n in os.listdir(out) if n.endswith(".json"))).read_text())
     assert data["normaliser"] is None
     assert all(r["mean"] is None and r["sd"] is None and "normaliser" in r["undefined"] for r in data["rows"])
     csv_text = (out / next(n for n in os.listdir(out) if n.endswith(".csv"))).read_text()
@@ -149,7 +140,7 @@ def test_figure_unreadable_stored_results_are_recomputed(tmp_path, capsys, monke
     assert cli.main(["--out", str(out), "figure", "3.1", "--quick", "--alphas", "0,10", "--quiet"]) == 0
     err = capsys.readouterr().err
     assert "cannot be read" in err and "recomputing" in err and "Traceback" not in err
-    _strict((out / f"experiment_{s.experiment.tag}.json").read_text())
+    strict_json((out / f"experiment_{s.experiment.tag}.json").read_text())
 
 
 # ----------------------------------------------------------------------------- plan

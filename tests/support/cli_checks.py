@@ -1,11 +1,20 @@
 """Checks shared by the command-line tests: a refused command line, a tiny finished training run, the checkout's
 subprocesses (``python -m train.*`` from the repository root)."""
 
+import json
 import os
 import time
 
 #: The repository root: the checkout whose ``train/`` and ``eval/`` shims the subprocess tests start.
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+
+def strict_json(text: str):
+    """Parse JSON refusing NaN and Infinity (what every jaxdc output must be)."""
+    def refuse(c):
+        raise AssertionError(f"non-strict JSON constant {c}")
+    return json.loads(text, parse_constant=refuse)
 
 
 def checkout_env() -> dict:
