@@ -27,6 +27,7 @@ import sys
 from jaxdc import pretrained
 from jaxdc.cli.args import positive_int, seed
 from jaxdc.cli.runner import command_line
+from jaxdc.core.generators import GENERATORS
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.analysis import generalisation as gen
 from jaxdc.io import atomic_write_set, check_output_folder, enable_compilation_cache, json_text
@@ -46,7 +47,7 @@ def add_parser(sub, prog: str) -> argparse.ArgumentParser:
                    help="training maps and held-out maps in the grid (each; the thesis' three maps always)")
     p.add_argument("--budgets", type=float, nargs="+", default=None, metavar="E",
                    help="pairs INIT MAX, e.g. 8 16 16 32 (default: 4/8 6/12 8/16 12/24 16/32 24/48 32/64)")
-    p.add_argument("--generator", default=None,
+    p.add_argument("--generator", choices=tuple(GENERATORS), default=None,
                    help="the generator of the held-out maps (default: the network's own training generator)")
     p.add_argument("--total-reward", type=positive_int("--total-reward"), default=30)
     p.add_argument("--episodes", type=positive_int("--episodes"), default=2000)

@@ -34,7 +34,7 @@ from jaxdc.core.memory import check_fits
 from jaxdc.core.paths import PathTable, safest_paths
 from jaxdc.core.validate import check_float
 from jaxdc.dcp import navigators
-from jaxdc.dcp.env import DCP, EnvParams, EnvState
+from jaxdc.dcp.env import DCP, EnvParams, EnvState, check_energy
 from jaxdc.dcp.planners import PlannerConfig
 
 #: Maps whose tables are computed in one batched call (bounds the memory of the Dijkstra batch).
@@ -115,7 +115,9 @@ def instance_params(env: DCP, maps: Any, energy_range: Any, init_fraction: float
 def fixed_instance(env: DCP, risk: Any, energy: Any, max_steps: int = 1000) -> EnvParams:
     """One map and one budget ``(initial, maximum)`` through the per-episode path (the thesis' settings for a
     network that reads the instance)."""
-    init_e, max_e = (float(e) for e in energy)
+    init_e, max_e = check_energy(energy)
+    if max_e == float("inf"):
+        raise ValueError("energy: per-episode instances need a finite maximum energy, got inf")
     arr = grid.as_risk_map(risk, env.grid_size)[None]
     return instance_params(env, arr, (max_e, max_e), init_e / max_e, max_steps)
 
@@ -157,10 +159,5 @@ def heuristic_policy(name: str, params: EnvParams, cfg: PlannerConfig = PlannerC
     return policy
 
 
-def count_maps(params: EnvParams) -> int:
-    """How many maps the episodes of ``params`` draw from (1 without per-episode maps)."""
-    return 1 if params.maps is None else int(params.maps.shape[0])
-
-
-__all__ = ["TABLE_CHUNK", "batched_heuristics", "check_energy_range", "check_maps", "compute_tables", "count_maps",
+__all__ = ["TABLE_CHUNK", "batched_heuristics", "check_energy_range", "check_maps", "compute_tables",
            "fixed_instance", "heuristic_policy", "instance_params", "state_params", "state_table", "table_bytes"]

@@ -107,3 +107,11 @@ def test_instances_run_in_the_batched_rollout_with_auto_reset():
     assert np.all(np.asarray(final.outcome) > 0)
     assert set(np.asarray(final.map_id).tolist()) == {0, 1}
     assert jnp.all(final.max_energy >= 8) and jnp.all(final.max_energy <= 32)
+
+
+@pytest.mark.parametrize("energy, match", [((20, 10), "must not exceed the maximum"),
+                                           ((8, float("inf")), "finite maximum energy"),
+                                           ((float("nan"), 16), "initial energy")])
+def test_fixed_instance_names_a_bad_budget(energy, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        I.fixed_instance(DCP(), "high", energy)

@@ -51,10 +51,6 @@ class Setting:
     energy: tuple[float, float] = (8.0, 16.0)
     inside: bool = True  # the maximum energy lies in the training range
 
-    @property
-    def label(self) -> str:
-        return f"{self.map_name}, {self.energy[0]:g}/{self.energy[1]:g}"
-
 
 def training_range(metadata: dict) -> tuple[float, float]:
     """The maximum energies a network was trained on: its ``energy_range``, else its one budget."""
