@@ -19,7 +19,7 @@ from jaxdc.core.claims import AGREES, Verdict
 from jaxdc.core.env import step_batch
 from jaxdc.core.scene import Scene
 from jaxdc.dcp.env import DCP
-from jaxdc.dcp.instances import count_maps, instance_params
+from jaxdc.dcp.instances import instance_params
 from jaxdc.nets import registry
 from jaxdc.training import presets
 
@@ -99,7 +99,7 @@ def test_the_generator_draws_maps_that_the_dcp_plays():
     np.testing.assert_array_equal(maps, generators.make_maps(gen, generators.SeedSet(0, 4), 3))  # seeded
     dcp = DCP(grid_size=3, total_reward=2)
     params = instance_params(dcp, maps, (4, 6))
-    assert count_maps(params) == 4
+    assert params.maps.shape == (4, 3, 3)
     play = jax.jit(lambda key: dcp.step(key, dcp.reset(key, params)[1], 4, params))  # reset, one step
     obs, state, *_ = play(jax.random.PRNGKey(0))
     assert obs.shape == (3, 3, 2) and 0 <= int(state.map_id) < 4 and 4 <= float(state.max_energy) <= 6
