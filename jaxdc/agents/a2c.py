@@ -56,6 +56,7 @@ from jaxdc.agents.common import (
     huber,
     lr_schedule,
     make_optimizer_from,
+    masked_logits,
     nstep_returns,
 )
 from jaxdc.core.env import Environment, step_batch
@@ -218,17 +219,21 @@ def a2c_loss(params: Any, apply_fn: Callable, obs: jax.Array, heuristics: jax.Ar
 
 
 # -- policies -----------------------------------------------------------------------------
-def make_policy(net: Network, params: Any, heuristics: Callable | None = None, greedy: bool = False) -> Callable:
+def make_policy(net: Network, params: Any, heuristics: Callable | None = None, greedy: bool = False,
+                mask: Callable | None = None) -> Callable:
     """``policy(key, obs, state) -> action`` for one environment, as :func:`jaxdc.core.rollout.run_episodes` wants.
 
     Samples from ``pi`` (section 4.5: "the output of ENN is used as a
-    stochastic policy"), or takes its argmax if ``greedy``.
+    stochastic policy"), or takes its argmax if ``greedy``. ``mask`` (``state -> bool [A]``, e.g.
+    :func:`jaxdc.dcp.masks.reach_base`; not in the thesis) restricts both to the allowed actions.
     """
     heuristics = heuristics_fn(net, heuristics)
 
     def policy(key, obs, state):
         batched = jax.tree_util.tree_map(lambda x: x[None], state)
         logits = net.apply(params, obs[None], heuristics(batched))[0]
+        if mask is not None:
+            logits = masked_logits(logits, mask(state)[None])
         if greedy:
             return jnp.argmax(logits[0]).astype(jnp.int32)
         return jax.random.categorical(key, logits[0]).astype(jnp.int32)

@@ -256,3 +256,12 @@ def heuristics_fn(net: Network, heuristics: Callable | None) -> Callable:
         return jnp.zeros((b, 1, net.num_actions), jnp.float32)
 
     return zeros
+
+
+def masked_logits(logits: jax.Array, allowed: jax.Array | None) -> jax.Array:
+    """``logits [..., A]`` with the actions outside ``allowed`` (bool ``[..., A]``; ``None``: all) pushed to the
+    lowest float, so that a softmax gives them probability 0 and an argmax never takes them (an action mask,
+    e.g. :mod:`jaxdc.dcp.masks`; the caller guarantees at least one allowed action)."""
+    if allowed is None:
+        return logits
+    return jnp.where(allowed, logits, jnp.finfo(logits.dtype).min)

@@ -39,6 +39,7 @@ from jaxdc.agents.common import (
     heuristics_fn,
     huber,
     make_optimizer_from,
+    masked_logits,
     nstep_returns,
 )
 from jaxdc.core.env import Environment, tree_select
@@ -95,12 +96,16 @@ class QTrainState:
     update: jax.Array
 
 
-def epsilon_greedy(key: jax.Array, q: jax.Array, epsilon: Any) -> jax.Array:
-    """Argmax of ``q [..., A]``, or a uniform action with probability ``epsilon``."""
+def epsilon_greedy(key: jax.Array, q: jax.Array, epsilon: Any, allowed: jax.Array | None = None) -> jax.Array:
+    """Argmax of ``q [..., A]``, or a uniform action with probability ``epsilon``; with ``allowed`` (bool
+    ``[..., A]``, an action mask) both among the allowed actions only."""
     k_explore, k_action = jax.random.split(key)
-    random_action = jax.random.randint(k_action, q.shape[:-1], 0, q.shape[-1])
+    if allowed is None:
+        random_action = jax.random.randint(k_action, q.shape[:-1], 0, q.shape[-1])
+    else:
+        random_action = jax.random.categorical(k_action, masked_logits(jnp.zeros(q.shape, jnp.float32), allowed))
     explore = jax.random.uniform(k_explore, q.shape[:-1]) < epsilon
-    return jnp.where(explore, random_action, jnp.argmax(q, axis=-1)).astype(jnp.int32)
+    return jnp.where(explore, random_action, jnp.argmax(masked_logits(q, allowed), axis=-1)).astype(jnp.int32)
 
 
 def q_loss(params: Any, apply_fn: Callable, obs: jax.Array, heuristics: jax.Array, actions: jax.Array,
@@ -113,13 +118,15 @@ def q_loss(params: Any, apply_fn: Callable, obs: jax.Array, heuristics: jax.Arra
 
 
 def make_q_policy(net: Network, params: Any, heuristics: Callable | None = None,
-                  epsilon: float = EVAL_EPSILON) -> Callable:
-    """``policy(key, obs, state)`` for :func:`jaxdc.core.rollout.run_episodes`: epsilon-greedy on EQN's Q."""
+                  epsilon: float = EVAL_EPSILON, mask: Callable | None = None) -> Callable:
+    """``policy(key, obs, state)`` for :func:`jaxdc.core.rollout.run_episodes`: epsilon-greedy on EQN's Q
+    (among the actions ``mask(state)`` allows, if given; not in the thesis)."""
     heuristics = heuristics_fn(net, heuristics)
 
     def policy(key, obs, state):
         batched = jax.tree_util.tree_map(lambda x: x[None], state)
-        return epsilon_greedy(key, net.apply(params, obs[None], heuristics(batched))[0], epsilon)
+        allowed = None if mask is None else mask(state)[None]
+        return epsilon_greedy(key, net.apply(params, obs[None], heuristics(batched))[0], epsilon, allowed)
 
     return policy
 

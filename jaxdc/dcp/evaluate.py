@@ -19,7 +19,7 @@ from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import RPE_ZERO, episode_summary  # noqa: F401  (RPE_ZERO: the public name)
 from jaxdc.core.validate import check_choice, check_positive_int
-from jaxdc.dcp import instances, navigators
+from jaxdc.dcp import instances, masks, navigators
 from jaxdc.dcp.env import DCP, OUTCOMES, EnvParams
 from jaxdc.dcp.planners import PlannerConfig
 
@@ -62,8 +62,9 @@ def evaluate_heuristic(
     return _run_heuristic(env, params, key, name, cfg, check_positive_int("episodes", episodes), path_risk)
 
 
-@functools.partial(jax.jit, static_argnames=("env", "net", "net_name", "episodes", "greedy", "cfg", "path_risk"))
-def _run_learned(env, params, key, net, net_name, net_params, episodes, greedy, epsilon, cfg, path_risk):
+@functools.partial(jax.jit, static_argnames=("env", "net", "net_name", "episodes", "greedy", "cfg", "path_risk",
+                                             "mask"))
+def _run_learned(env, params, key, net, net_name, net_params, episodes, greedy, epsilon, cfg, path_risk, mask):
     from jaxdc.dcp.learned import Learned
 
     if params.maps is None:
@@ -71,7 +72,8 @@ def _run_learned(env, params, key, net, net_name, net_params, episodes, greedy, 
     else:  # per-episode maps: each episode's own table (computed with the default path_risk)
         heuristics = instances.batched_heuristics(params, cfg)
     learned = Learned(net_name, net, net_params, {}, "")
-    return run_episodes(env, params, learned.policy(heuristics, greedy, epsilon), key, episodes)
+    return run_episodes(env, params, learned.policy(heuristics, greedy, epsilon, masks.make_mask(mask, env)), key,
+                        episodes)
 
 
 def evaluate_learned(
@@ -84,13 +86,15 @@ def evaluate_learned(
     epsilon: float | None = None,
     cfg: PlannerConfig = PlannerConfig(),
     path_risk: str = "departed",
+    mask: str = "none",
 ):
     """Final states of ``episodes`` episodes of a learned network (jitted, batched like the navigators).
 
     ``learned`` is a :class:`jaxdc.dcp.learned.Learned`. Actor-critics sample
     from ``pi`` (section 4.5) unless ``greedy``; EQN is epsilon-greedy with
     ``epsilon`` (default 0.05, section 4.5.5). The network sees the ten ENN
-    heuristics of section 4.4.3 computed on ``params``' risk map. Raises a
+    heuristics of section 4.4.3 computed on ``params``' risk map. ``mask`` names an action mask of
+    :data:`jaxdc.dcp.masks.MASKS` (``"none"``: the thesis' policy). Raises a
     ``ValueError`` if the network's parameters do not fit ``env``'s grid.
     """
     from jaxdc.dcp.learned import EQN_EPSILON, check_params
@@ -105,8 +109,9 @@ def evaluate_learned(
     net_params = check_params(learned.net_name, learned.net, learned.params, env.grid_size, learned.source,
                               observation)
     episodes = check_positive_int("episodes", episodes)
+    check_choice("mask", mask, masks.MASKS)
     return _run_learned(env, params, key, learned.net, learned.net_name, net_params, episodes,
-                        bool(greedy), jax.numpy.float32(epsilon), cfg, path_risk)
+                        bool(greedy), jax.numpy.float32(epsilon), cfg, path_risk, mask)
 
 
 class OptimalEvaluation(NamedTuple):

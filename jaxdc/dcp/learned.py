@@ -63,18 +63,22 @@ class Learned(pretrained.Learned):
         """``"thesis"`` or ``"general"``: what the network reads (:data:`jaxdc.dcp.env.OBSERVATIONS`)."""
         return observation_of(self.metadata)
 
-    def policy(self, heuristics: Any = None, greedy: bool = False, epsilon: float = EQN_EPSILON) -> Callable:
+    def policy(self, heuristics: Any = None, greedy: bool = False, epsilon: float = EQN_EPSILON,
+               mask: Callable | None = None) -> Callable:
         """``policy(key, obs, state)`` of the network for :func:`jaxdc.core.rollout.run_episodes`.
 
         Actor-critics sample from ``pi`` (section 4.5: "the output of ENN is used
         as a stochastic policy"), or take its argmax if ``greedy``. EQN is
         epsilon-greedy with ``epsilon`` (section 4.5.5: 0.05; 0 if ``greedy``).
+        ``mask`` (``state -> bool [A]``, :mod:`jaxdc.dcp.masks`; not in the thesis) restricts either to the
+        allowed actions.
         """
         from jaxdc.agents import a2c, nstep_q
 
         if DCP_NETS[self.net_name].algorithm == NSTEP_Q:
-            return nstep_q.make_q_policy(self.net, self.params, heuristics, epsilon=0.0 if greedy else epsilon)
-        return a2c.make_policy(self.net, self.params, heuristics, greedy=greedy)
+            return nstep_q.make_q_policy(self.net, self.params, heuristics, epsilon=0.0 if greedy else epsilon,
+                                         mask=mask)
+        return a2c.make_policy(self.net, self.params, heuristics, greedy=greedy, mask=mask)
 
     def describe(self) -> str:
         """One line: network, training setting and source."""
