@@ -6,27 +6,20 @@ it shows how much the heuristics of section 4.4.3 contribute.
 
 from __future__ import annotations
 
-import flax.linen as nn
+from typing import Any
+
+import jax
 
 from jaxdc.nets.body import ConvBody
+from jaxdc.nets.heads import LinearHeads
 
 
-class CNN(nn.Module):
+class CNN(LinearHeads):
     """``(obs [B, N, N, 2], heuristics ignored) -> (logits [B, A], value [B])``."""
 
-    num_actions: int = 9
-    uses_heuristics = False
-    has_aux = False
-    aux_params = ()
-
-    def setup(self):
+    def setup(self) -> None:
         self.body = ConvBody()
-        self.policy_out = nn.Dense(self.num_actions)
-        self.value_out = nn.Dense(1)
+        super().setup()
 
-    def __call__(self, obs, heuristics=None):
-        h = self.body(obs)
-        return self.policy_out(h), self.value_out(h)[:, 0]
-
-    def value(self, obs):
-        return self.value_out(self.body(obs))[:, 0]
+    def features(self, obs: Any) -> jax.Array:
+        return self.body(obs)
