@@ -77,9 +77,9 @@ class Cluster:
             raise SettingError(f"{{0}} must be HOST:PORT with a port in [1, 65535], got "
                                f"{SettingError.text(repr(self.coordinator))}", "coordinator") from None
         n, i = self.num_processes, self.process_id
-        if not is_int(n, numpy=False) or n < 1:
+        if not isinstance(n, int) or not is_int(n, numpy=False) or n < 1:
             raise SettingError(f"{{0}} must be an int >= 1, got {SettingError.text(repr(n))}", "num_processes")
-        if not is_int(i, numpy=False) or not 0 <= i < n:
+        if not isinstance(i, int) or not is_int(i, numpy=False) or not 0 <= i < n:
             raise SettingError(f"{{0}} must be an int in [0, {n}) ({{1}} {n}), got {SettingError.text(repr(i))}",
                                "process_id", "num_processes")
 
@@ -97,7 +97,7 @@ def initialize(cluster: Cluster) -> None:
     """
     if not cluster.active:
         return
-    if jax.config.jax_cpu_collectives_implementation in (None, "", "none"):
+    if getattr(jax.config, "jax_cpu_collectives_implementation", None) in (None, "", "none"):
         jax.config.update("jax_cpu_collectives_implementation", CPU_COLLECTIVES)
     if cluster.auto_cluster:
         jax.distributed.initialize()
