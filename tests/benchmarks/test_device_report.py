@@ -40,6 +40,7 @@ def test_rows_past_the_budget_are_listed_as_skipped(tmp_path, capsys):
     assert "Skipped (past the time budget)" in (tmp_path / "device_report.md").read_text()
 
 
+@pytest.mark.slow  # two compiles (a rollout and an update): 112 s on the busy 2-core machine it was written on
 def test_small_run_writes_one_table(tmp_path, capsys):
     argv = ["--small", "--json", "--games", "dcp", "--learners", "a2c", "--net", "linear", "--batch-sizes", "16",
             "--out-dir", str(tmp_path)]

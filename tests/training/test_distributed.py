@@ -132,6 +132,7 @@ def _evaluations(folder: str) -> list[dict]:
         return [{k: v for k, v in row.items() if k not in ("wall_s", "steps_per_s")} for row in csv.DictReader(f)]
 
 
+@pytest.mark.slow  # five CLI processes; about 6 minutes on the busy 2-core machine it was written on (load 12)
 def test_two_processes_train_as_one_process_over_two_devices_and_resume(tmp_path):
     multi, single, silent = (str(tmp_path / n) for n in ("multi", "single", "process1"))
     logs, procs = _two_processes(tmp_path, "multi", (multi, silent))
