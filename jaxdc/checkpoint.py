@@ -34,8 +34,16 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 
 def _manager(directory: PathLike, keep: int | None = None) -> ocp.CheckpointManager:
-    options = ocp.CheckpointManagerOptions(max_to_keep=keep, enable_async_checkpointing=False, create=True)
-    return ocp.CheckpointManager(os.path.abspath(os.fspath(directory)), options=options)
+    path = os.path.abspath(os.fspath(directory))
+    if jax.process_count() == 1:
+        options = ocp.CheckpointManagerOptions(max_to_keep=keep, enable_async_checkpointing=False, create=True)
+    else:  # several processes (jaxdc.training.distributed): each call is this process's alone, no barriers
+        me = jax.process_index()
+        os.makedirs(path, exist_ok=True)
+        options = ocp.CheckpointManagerOptions(
+            max_to_keep=keep, enable_async_checkpointing=False, create=False,
+            multiprocessing_options=ocp.options.MultiprocessingOptions(primary_host=me, active_processes={me}))
+    return ocp.CheckpointManager(path, options=options)
 
 
 def save(directory: PathLike, step: int, state: Any, metadata: dict, keep: int = 3) -> None:

@@ -20,6 +20,7 @@ from typing import Any
 
 from jaxdc.agents.a2c import A2CConfig
 from jaxdc.cli.args import nonnegative_float, positive_float, positive_int, seed, seed_list, unit_interval
+from jaxdc.cli.cluster import add_cluster_arguments, cluster
 from jaxdc.core.energy import MAX_FINITE_ENERGY
 from jaxdc.io import check_output_folder
 from jaxdc.training import presets
@@ -77,6 +78,7 @@ def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eva
     p.add_argument("--greedy-eval", action="store_true", help="evaluate the argmax policy instead of sampling")
     p.add_argument("--keep", type=positive_int("--keep"), default=3, help="checkpoints to keep")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_cluster_arguments(p)  # several processes: --coordinator --num-processes --process-id, --auto-cluster
 
 
 def add_config_arguments(p: argparse.ArgumentParser, problem: str) -> None:
@@ -276,6 +278,7 @@ def train_from_command_line(parser: argparse.ArgumentParser, argv: list[str] | N
     train it: ``(args, run, result)``, or ``None`` after ``--list-configs``. A bad value or combination is a usage
     error (exit 2) naming the flag."""
     from jaxdc.io import enable_compilation_cache
+    from jaxdc.training import distributed
     from jaxdc.training.fields import SettingError
 
     args = parse_with_config(parser, argv, problem, from_metadata)
@@ -286,6 +289,7 @@ def train_from_command_line(parser: argparse.ArgumentParser, argv: list[str] | N
         check_outputs(control.out, control.tensorboard)
         if check_more is not None:
             check_more(args)
+        distributed.initialize(cluster(args))  # before any JAX computation
         enable_compilation_cache()
         run = make_run(settings, control)
         result = run.train()

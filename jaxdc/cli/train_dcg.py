@@ -60,6 +60,7 @@ from jaxdc.cli.train_common import (
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.io import check_output_path
 from jaxdc.training.dcg import NETS, DCGRun, DCGSettings, settings_from_metadata
+from jaxdc.training.distributed import is_primary
 
 #: EMNN's default weight of Eq. 5.1 (section 5.5.2).
 ALPHA = 0.001
@@ -151,7 +152,7 @@ def main(argv=None) -> int:
         acc = r.get("eval_opponent_accuracy")
         print(f"done: seed {seed}, {r['env_steps']} steps, eval reward {fmt(r['eval_reward'])} "
               f"(RPE {fmt(r['eval_rpe'])}" + (f", opponent accuracy {fmt(acc)})" if acc is not None else ")"))
-    if args.ship is not None:
+    if args.ship is not None and is_primary():  # with several processes, process 0 ships
         argv_text = sys.argv[1:] if argv is None else list(argv)
         try:
             path = run.ship(args.ship, "python -m train.dcg " + shlex.join(argv_text))

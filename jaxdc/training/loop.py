@@ -12,7 +12,9 @@ uninterrupted run does; a loss that is not finite stops the run (status
 ``"nan"``) before it is checkpointed, so the last checkpoint stays good.
 
 Several seeds run in one vmapped program and the environment batch is split
-over the devices (:func:`spread`, :mod:`jaxdc.agents.parallel`).
+over the devices (:func:`spread`, :mod:`jaxdc.agents.parallel`), also those of
+several processes (:mod:`jaxdc.training.distributed`): then every process steps
+its shard and only process 0 evaluates and writes the run folder.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from jaxdc.agents.common import RunConfig, Trainer, lr_schedule
 from jaxdc.core import memory
 from jaxdc.io import atomic_write_json, check_output_folder
 from jaxdc.provenance import provenance
+from jaxdc.training.distributed import is_primary
 from jaxdc.training.fields import SettingError
 from jaxdc.training.metrics import read_rows, tensorboard_writer, write_rows
 
@@ -212,19 +215,22 @@ class TrainingRun:
     def initial_state(self) -> Any:
         """A fresh state (writes ``config.json``), or with ``resume`` the latest checkpoint's."""
         check_output_folder(self.out, "output folder")
-        os.makedirs(self.out, exist_ok=True)
+        if is_primary():  # with several processes, only process 0 writes
+            os.makedirs(self.out, exist_ok=True)
         state = self.trainer.init(self.init_key())
         existing = checkpoint.steps(self.ckpt_dir)
         if not self.control.resume:
             if existing:
                 raise SettingError(f"{SettingError.text(self.ckpt_dir)} already holds checkpoints {existing}; "
                                    "pass {0} to continue or choose another {1}", "resume", "out")
-            atomic_write_json(os.path.join(self.out, "config.json"), self.metadata)
-            atomic_write_json(os.path.join(self.out, "provenance.json"), provenance())
+            if is_primary():
+                atomic_write_json(os.path.join(self.out, "config.json"), self.metadata)
+                atomic_write_json(os.path.join(self.out, "provenance.json"), provenance())
             return state
         if not existing:
             raise SettingError(f"{{0}}: no checkpoint found in {SettingError.text(self.ckpt_dir)}", "resume")
-        state, _ = checkpoint.restore(self.ckpt_dir, state, self.metadata, upgrade=metadata_format.upgrade)
+        state, _ = checkpoint.restore(self.ckpt_dir, parallel.host(state), self.metadata,
+                                      upgrade=metadata_format.upgrade)
         return self.place(state)
 
     # -- the loop -----------------------------------------------------------------------
@@ -245,7 +251,7 @@ class TrainingRun:
         every = max(1, c.eval_every // cfg.batch_size)
         schedule = lr_schedule(cfg)
         bar = tqdm(total=cfg.num_updates * cfg.batch_size, initial=update * cfg.batch_size, unit="step",
-                   unit_scale=True, disable=not c.progress, dynamic_ncols=True)
+                   unit_scale=True, disable=not c.progress or not is_primary(), dynamic_ncols=True)
         last = {"status": "done", "updates": update}
         self.final_state = state
         if c.resume and update >= cfg.num_updates:
@@ -267,7 +273,11 @@ class TrainingRun:
                       f"{where}", file=sys.stderr)
                 return {"status": "nan", "updates": update}
             update += n
-            evals = spec.evaluate(state.params, self.eval_key(update))
+            whole = parallel.host(state)  # several processes: all take part, each gets the whole state
+            self.final_state = whole
+            if not is_primary():  # the others only step their environments
+                continue
+            evals = spec.evaluate(whole.params, self.eval_key(update))
             for i, (seed_rows, ev) in enumerate(zip(rows, evals)):
                 # the lambda runs at once (tree_map), with this iteration's i
                 m = jax.tree_util.tree_map(lambda x: x[i], metrics) if self.multi else metrics  # noqa: B023
@@ -287,10 +297,9 @@ class TrainingRun:
             # rows past it, so the CSV and the checkpoints always agree
             for (csv_path, _), seed_rows in zip(paths, rows):
                 write_rows(csv_path, seed_rows, spec.csv_fields)
-            checkpoint.save(self.ckpt_dir, update, state, self.metadata, keep=c.keep)
+            checkpoint.save(self.ckpt_dir, update, whole, self.metadata, keep=c.keep)
             last = dict(rows[0][-1], per_seed=[(seed, r[-1]) for seed, r in zip(self.seeds, rows)])
             bar.set_postfix({spec.postfix_key: " ".join(f"{r[-1][spec.postfix_key]:.3f}" for r in rows)})
-            self.final_state = state
         bar.close()
         for w in writers:
             w.close()
