@@ -206,6 +206,19 @@ def resolve(path: PathLike, problem: str) -> str:
     return path
 
 
+def read_paths(path: PathLike, problem: str) -> list[str]:
+    """The files and folders :func:`load_trained` reads for ``path``: a parameter file and its sidecar, or a run
+    folder's ``checkpoints/`` and ``config.json`` (for the commands' check that no output overwrites an input)."""
+    try:
+        path = resolve(path, problem)
+    except ValueError:
+        path = os.fspath(path)
+    if os.path.isdir(path):
+        ckpt = os.path.join(path, "checkpoints")
+        return [ckpt, os.path.join(path, "config.json")] if os.path.isdir(ckpt) else [path]
+    return list(_paths(path))
+
+
 def check_finite(params: Any, source: str) -> None:
     """``ValueError`` naming ``source`` and the first parameter that holds NaN or infinity (a damaged file or a
     diverged run); every loader of trained parameters calls it."""
