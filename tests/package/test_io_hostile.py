@@ -67,3 +67,23 @@ def test_folder_at_a_file_name_refused(tmp_path):
 def test_empty_path_refused():
     with pytest.raises(ValueError, match="--out is empty"):
         io.check_output_folder("", "--out")
+
+
+# ----------------------------------------------------------------------------- JSON nested too deeply
+
+
+@pytest.mark.parametrize("text", ["[" * 100_000 + "]" * 100_000, '{"a":' * 100_000 + "1" + "}" * 100_000])
+def test_deeply_nested_json_refused_naming_the_file(tmp_path, text):
+    path = tmp_path / "deep.json"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=r"deep\.json: nested too deeply to be read; rerun"):
+        io.read_json(str(path), "rerun")
+
+
+def test_deeply_nested_sidecar_refused_naming_the_file(tmp_path):
+    from jaxdc import pretrained
+
+    (tmp_path / "net.msgpack").write_bytes(b"")
+    (tmp_path / "net.json").write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(ValueError, match=r"net\.msgpack: metadata unreadable: .*net\.json: nested too deeply"):
+        pretrained.read_metadata(str(tmp_path / "net.msgpack"))
