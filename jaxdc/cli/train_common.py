@@ -184,7 +184,7 @@ def config_defaults(p: argparse.ArgumentParser, value: str, problem: str, from_m
                              f"python -m train.{preset.problem} --config {value}")
         set_field_defaults(p, preset.fields().items(), f"--config {value}")
         return
-    path = os.path.join(value, "config.json") if os.path.isdir(value) else value
+    path = config_file(value)
     if not os.path.isfile(path):
         raise ValueError(f"--config {value!r} is neither a named configuration ({', '.join(presets.names(problem))})"
                          " nor a run's config.json")
@@ -196,6 +196,14 @@ def config_defaults(p: argparse.ArgumentParser, value: str, problem: str, from_m
     settings, seeds = from_metadata(meta, where)
     no_flag = {f.name: f.default for f in dataclasses.fields(settings.config)}
     set_field_defaults(p, _run_fields(settings, seeds, problem), where, no_flag)
+
+
+def config_file(value: str | None) -> str | None:
+    """The file ``--config value`` reads: ``None`` for no ``--config`` or a named configuration, a folder's
+    ``config.json``, else ``value``."""
+    if value is None or value in presets.EVERY:
+        return None
+    return os.path.join(value, "config.json") if os.path.isdir(value) else value
 
 
 def parse_with_config(p: argparse.ArgumentParser, argv: list[str] | None, problem: str,
@@ -212,7 +220,9 @@ def parse_with_config(p: argparse.ArgumentParser, argv: list[str] | None, proble
             config_defaults(p, value, problem, from_metadata)
     except ValueError as e:
         p.error(str(e))
-    return p.parse_args(argv)
+    args = p.parse_args(argv)
+    args.config = value  # --config is read before the parse; its file is an input (no output may overwrite it)
+    return args
 
 
 def a2c_settings(args: argparse.Namespace, fields: Iterable[str] = A2C_FLAGS) -> dict[str, Any]:
@@ -258,9 +268,17 @@ def training_energy(name: str) -> Callable[[str], float]:
     return parse
 
 
-def check_outputs(out: str, tensorboard: bool = False) -> None:
-    """Refuse, before any work, a run folder (and its ``tb/``) that cannot be created or written."""
-    check_output_folder(out, "--out")
+def run_outputs(out: str) -> list[str]:
+    """The files and folders of run folder ``out`` that a run writes and a resume reads."""
+    return [os.path.join(out, name) for name in ("config.json", "metrics.csv", "checkpoints")]
+
+
+def check_outputs(out: str, tensorboard: bool = False, config: str | None = None, resume: bool = False) -> None:
+    """Refuse, before any work, a run folder (and its ``tb/``) that cannot be created or written, or whose
+    ``config.json`` (written by a fresh run) or ``metrics.csv`` is the ``--config`` file ``config``."""
+    inputs = {"--config": config_file(config)}
+    check_output_folder(out, "--out", files=("metrics.csv",) if resume else ("config.json", "metrics.csv"),
+                        inputs=inputs)
     if tensorboard:
         check_output_folder(os.path.join(out, "tb"), "--tensorboard folder")
 
@@ -286,7 +304,7 @@ def train_from_command_line(parser: argparse.ArgumentParser, argv: list[str] | N
         return None
     try:
         settings, control = settle(args)
-        check_outputs(control.out, control.tensorboard)
+        check_outputs(control.out, control.tensorboard, getattr(args, "config", None), control.resume)
         if check_more is not None:
             check_more(args)
         distributed.initialize(cluster(args))  # before any JAX computation

@@ -51,8 +51,10 @@ from jaxdc.cli.train_common import (
     a2c_settings,
     add_a2c_arguments,
     add_config_arguments,
+    config_file,
     fmt,
     run_control,
+    run_outputs,
     seed_tag,
     train_from_command_line,
     training_energy,
@@ -140,7 +142,10 @@ def main(argv=None) -> int:
     def check_ship(args: argparse.Namespace) -> None:
         if args.ship is not None:
             blob = ship_path(args)
-            check_output_path(blob if blob.endswith(".msgpack") else blob + ".msgpack", "--ship")
+            blob = blob[: -len(".msgpack")] if blob.endswith(".msgpack") else blob
+            out = settle(args)[1].out
+            for path in (blob + ".msgpack", blob + ".json"):
+                check_output_path(path, "--ship", {"--config": config_file(args.config), "--out": run_outputs(out)})
 
     trained = train_from_command_line(parser, argv, "dcg", settings_from_metadata, settle, DCGRun, check_ship)
     if trained is None:  # --list-configs

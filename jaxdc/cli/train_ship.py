@@ -58,7 +58,10 @@ def main(argv=None) -> int:
         p.error(f"--export-only: {', '.join(n for n in names if n in DCG_STRONG)} are written by train.dcg --ship; "
                 "train them (a finished run folder is resumed)")
     try:
-        check_output_folder(args.out, "--out")
+        exported = [n for n in names if n not in DCG_STRONG]
+        check_output_folder(args.out, "--out", files=[f"{n}.{ext}" for n in exported for ext in ("msgpack", "json")],
+                            inputs={"--runs": [os.path.join(args.runs, n, f) for n in exported
+                                               for f in ("checkpoints", "config.json", "metrics.csv")]})
         if not args.export_only:
             check_output_folder(args.runs, "--runs")
     except ValueError as e:

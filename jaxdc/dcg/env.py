@@ -228,6 +228,11 @@ class DCG(Environment[EnvState, EnvParams]):
             + ")"
         )
 
+    def grid_shapes(self) -> tuple[dict[str, tuple[int, ...]], dict[str, tuple[int, ...]]]:
+        """The state's grid-shaped fields (the items, the history planes); the parameters have none."""
+        n = (self.grid_size, self.grid_size)
+        return {}, {"items": n, "history": n + (self.history,)}
+
     def default_rules(self) -> bool:
         """Whether the four rule readings (``capture`` ... ``caught_energy``) are the defaults."""
         return (self.capture, self.safe_base, self.opponent_enters_base, self.caught_energy) == (

@@ -129,6 +129,7 @@ def evaluate_policy(env: DCG, params: EnvParams, policy: Callable, key, episodes
     """
     if not isinstance(env, DCG):
         raise TypeError(f"env must be a jaxdc.dcg.env.DCG, got {type(env).__name__}")
+    env.check_params(params)
     episodes = check_positive_int("episodes", episodes)
     scored = Scored(env)
     play = with_prediction(policy, predict)

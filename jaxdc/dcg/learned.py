@@ -42,6 +42,62 @@ ENV_OPTION_KEYS = ("history_fill", "items_on_base", "opponent_start", "patrol_ta
                    "energy_metric", "reward_area", "min_reward_area")
 
 
+def _strategies(name: str, value: Any) -> Any:
+    """A stored strategy set: a list of names (or the comma-separated text of ``--strategies``)."""
+    from jaxdc.dcg.opponents import get_strategies
+
+    if not isinstance(value, (str, list)) or not all(isinstance(v, str) for v in value):
+        raise TypeError(f"{name} must be a list of strategy names, got {value!r}")
+    try:
+        get_strategies(value)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name}: {e}") from None
+    return value
+
+
+def _setting_schema() -> dict[str, pretrained.SettingCheck]:
+    """The checks of a DCG network's stored setting: those of ``train.dcg``'s and ``eval.dcg``'s flags (the
+    constructor's choices and ranges), strict about JSON types."""
+    from jaxdc.core.energy import ENERGY_METRICS, MAX_FINITE_ENERGY
+    from jaxdc.core.sampling import MAX_TOTAL_REWARD
+    from jaxdc.core.validate import SEED_MAX
+    from jaxdc.dcg import env as dcg_env
+    from jaxdc.dcg.opponents import CHASE_TIES
+    from jaxdc.pretrained import json_bool, json_choice, json_int, json_number, json_object, optional
+
+    options = {"history_fill": json_choice(dcg_env.HISTORY_FILLS), "items_on_base": json_bool,
+               "opponent_start": json_choice(dcg_env.OPPONENT_STARTS),
+               "patrol_target": json_choice(dcg_env.PATROL_TARGETS), "reward_when_caught": json_bool,
+               "energy_metric": json_choice(ENERGY_METRICS), "reward_area": optional(json_int(1)),
+               "min_reward_area": optional(json_int(1))}
+    return {
+        "grid_size": json_int(2), "total_reward": json_int(1, MAX_TOTAL_REWARD),
+        "energy": json_number(0.0, MAX_FINITE_ENERGY, low_open=True), "max_steps": json_int(1),  # trained: finite
+        "strategies": _strategies, "history": json_int(0), "chase_tie": json_choice(CHASE_TIES),
+        "obs_history": json_bool, "alpha": optional(json_number(0.0)), "seed": json_int(0, SEED_MAX),
+        "steps": json_int(1, None), "updates": json_int(1, None), **options, "env": json_object(options),
+    }
+
+
+def check_setting(meta: dict, where: str) -> dict:
+    """``meta`` if its stored setting passes the checks of the flags (:func:`_setting_schema`), its history
+    planes fit in memory and it builds the game of training; else a ``ValueError`` (``MemoryError``) naming
+    ``where`` (the file) and the key."""
+    from jaxdc.core import memory
+
+    pretrained.check_settings(meta, where, _setting_schema())
+    n = meta.get("grid_size", DEFAULT_SETTING["grid_size"])
+    k = meta.get("history", DEFAULT_SETTING["history"])
+    # the network reads [N, N, 2 + k] planes and each game keeps [N, N, k]: the least an evaluation holds
+    memory.check_fits(2 * 4 * n * n * (2 + k), f"{where}: key 'history': {k} history planes of {n}x{n}",
+                      "the history (retrain with a smaller --history)")
+    try:
+        Learned(str(meta.get("net")), None, None, meta, where).game()
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{where}: its setting does not build the game: {e}") from None
+    return meta
+
+
 def make_network(name: str, history: int = 10) -> Any:
     """The flax module of ``name`` (:data:`NETS`) for a history of ``k = history`` planes."""
     return build("dcg", name, history=history)
@@ -124,7 +180,7 @@ class Learned(pretrained.Learned):
                 f"trained on {s['grid_size']}x{s['grid_size']}, {s['total_reward']} rewards"
                 + (f" in the bottom-right {area}x{area} square" if (area := self.metadata.get("reward_area")) else "")
                 + (f" (sizes {m}-{area})" if (m := self.metadata.get("min_reward_area")) else "")
-                + f", energy {s['energy']:g}, "
+                + f", energy {float(s['energy']):g}, "
                 f"strategies {','.join(s['strategies'])}, history {s['history']}, "
                 f"{self.steps or '?'} steps, seed {self.metadata.get('seed', '?')} ({self.source})")
 
@@ -147,7 +203,7 @@ def load(path: pretrained.PathLike, net: str | None = None) -> Learned:
     def target(name: str, meta: dict, source: str) -> Any:
         return train_state_template(make_network(name, meta.get("history", DEFAULT_SETTING["history"])), meta, source)
 
-    name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net)
+    name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net, check_setting=check_setting)
     module = make_network(name, meta.get("history", DEFAULT_SETTING["history"]))
     params = _check(name, module, params, meta, source)
     return Learned(name, module, params, meta, source)

@@ -212,6 +212,11 @@ class DCP(Environment[EnvState, EnvParams]):
             max_steps=jnp.int32(max_steps),
         )
 
+    def grid_shapes(self) -> tuple[dict[str, tuple[int, ...]], dict[str, tuple[int, ...]]]:
+        """The grid-shaped fields: the risk map(s) of the parameters, the items and ranks of the state."""
+        n = (self.grid_size, self.grid_size)
+        return {"risk": n, "maps": n}, {"items": n, "rank": n, "pos": (2,)}
+
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, 2 if self.observation == "thesis" else 4)
 
