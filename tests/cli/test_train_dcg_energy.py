@@ -17,10 +17,10 @@ from jaxdc.dcg import learned as learned_lib
 from jaxdc.training import dcg, presets
 from tests.support.cli_checks import refused
 
-# 3x3 grid, 3 items, the restricted chaser, VNN (no history planes); 8 updates of 16 envs x 8 steps.
+# 3x3 grid, 3 items, the restricted chaser, VNN (no history planes); one update of 16 envs x 8 steps.
 TINY = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies", "restricted", "--max-steps", "20",
-        "--energy-range", "3", "8", "--observation", "general", "--steps", "1024", "--envs", "16", "--t-max", "8",
-        "--eval-every", "1024", "--eval-episodes", "16", "--no-progress"]
+        "--energy-range", "3", "8", "--observation", "general", "--steps", "128", "--envs", "16", "--t-max", "8",
+        "--eval-every", "128", "--eval-episodes", "16", "--no-progress"]
 
 
 @pytest.fixture(scope="module")
