@@ -10,6 +10,7 @@ Examples::
     python -m eval.dcg figure all --episodes 2000
     python -m eval.dcg render --net omn_conn --strategy patrol --seed 3 --greedy --reward-area 2
     python -m eval.dcg optimum --episodes 2000                      # the full-information bound, 10 items
+    python -m eval.dcg energies --checkpoint NET --energies 8 10 12 15 20 25   # one collector per energy
 
 An evaluation writes its JSON atomically to ``--out`` (default
 ``results/dcg``); ``--json`` prints exactly one JSON object. Every JSON is
@@ -22,7 +23,11 @@ and reused for the same parameter file and settings; ``--no-cache``
 re-runs them); ``render`` writes a PNG strip (Figs.
 5.13-5.15) and a GIF; ``optimum`` estimates the full-information bound of the
 standard game over sampled games (``jaxdc.dcg.exact.many_items``) and writes
-``results/dcg/optimum_<settings>.json``.
+``results/dcg/optimum_<settings>.json``; ``energies`` plays one collector (e.g.
+one trained with ``train.dcg --energy-range``) at each maximum energy beside
+that bound and the shipped per-energy collectors of Figs. 5.8-5.9
+(``jaxdc.dcg.analysis.energies``) and writes
+``results/dcg/energies_<net>.{json,md}``.
 
 Every flag value is checked before any work (numbers finite and in range,
 seeds in ``0 .. 2**32 - 1``, output folders creatable and writable); a bad one
@@ -49,6 +54,7 @@ from jaxdc.core.trajectory import play_episode
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis.claims import claims
 from jaxdc.dcg.analysis.collector_eval import evaluate
+from jaxdc.dcg.analysis.energies import energy_markdown, energy_table
 from jaxdc.dcg.analysis.experiment import group_key, network_pool, run_experiment, stored_standard
 from jaxdc.dcg.analysis.figures import EXPERIMENTS, FIGURES, missing
 from jaxdc.dcg.analysis.report import (
@@ -81,7 +87,7 @@ PROG = "python -m eval.dcg"
 RESULTS = os.path.join("results", "dcg")
 IMAGES = os.path.join("docs", "img")
 #: The subcommands; a command line that does not start with one of them is an ``evaluate``.
-SUBCOMMANDS = ("evaluate", "figure", "render", "optimum")
+SUBCOMMANDS = ("evaluate", "figure", "render", "optimum", "energies")
 DEFAULT_SUBCOMMAND = "evaluate"
 #: Most frames per row of a ``render`` strip.
 MAX_COLS = 1000
@@ -230,6 +236,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
     p.add_argument("--out", default=RESULTS, help="folder for the result JSON")
     p.set_defaults(run=_optimum, error=p.error)
+
+    p = sub.add_parser("energies", prog=f"{PROG} energies", help="one collector at several maximum energies",
+                       description="Play one collector at each maximum energy beside the full-information bound there "
+                                   "and the shipped per-energy collectors of Figs. 5.8-5.9 (beyond the thesis).")
+    _add_network(p)
+    p.add_argument("--energies", nargs="+", type=integer("--energies", low=1, high=int(MAX_FINITE_ENERGY)),
+                   default=[8, 10, 12, 15, 20, 25], help="whole maximum energies (8 10 12 15 20 25)")
+    p.add_argument("--episodes", type=positive_int("--episodes"), default=2000, help="games per network and energy")
+    p.add_argument("--bound-episodes", type=positive_int("--bound-episodes"), default=500,
+                   help="games the bound is estimated over at each energy (500)")
+    p.add_argument("--seed", type=seed("--seed"), default=0)
+    p.add_argument("--greedy", action="store_true", help="argmax policy (default: sample from pi, as the thesis)")
+    p.add_argument("--no-specialists", action="store_true", help="skip the shipped per-energy collectors")
+    p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
+    p.add_argument("--out", default=RESULTS, help="folder for the JSON and markdown")
+    p.set_defaults(run=_energies, error=p.error)
     return parser
 
 
@@ -404,6 +426,30 @@ def _optimum(args, command) -> int:
     else:
         print(optimum_text(out["optimum"], s.episodes))
         print(f"written {path}")
+    return 0
+
+
+def _energies(args, command) -> int:
+    _check_folders(args, "--out")
+    enable_compilation_cache()
+    try:
+        learned = _load(args.checkpoint, args.net)
+        say = None if args.json else (lambda m: print(m, file=sys.stderr))
+        table = energy_table(learned, args.energies, episodes=args.episodes, seed=args.seed,
+                             bound_episodes=args.bound_episodes, greedy=args.greedy,
+                             specialists=not args.no_specialists, progress=say)
+    except (TypeError, ValueError) as e:
+        args.error(str(e))
+    table["command"] = command
+    md = energy_markdown(table)
+    line = json_text(table, indent=None)
+    stem = os.path.join(args.out, f"energies_{learned.net_name}_s{args.seed}")
+    atomic_write_set({stem + ".json": json_text({**table, "provenance": provenance()}) + "\n", stem + ".md": md})
+    if args.json:
+        print(line)
+    else:
+        print(md)
+        print(f"written {stem}.json and {stem}.md", file=sys.stderr)
     return 0
 
 

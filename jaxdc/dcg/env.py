@@ -29,6 +29,14 @@ Observation (section 5.4.1), channels-last: ``M^item`` (item rewards),
 collector is in a fog cell), and -- with ``obs_history=True`` -- the ``k``
 previous agent planes ``M^agent_{t-1} .. M^agent_{t-k}`` (the history ``h``
 of sections 5.4.3-5.4.5), kept in the state so that everything stays pure.
+
+Beyond the thesis (its conclusion: "changing the maximum energy level often
+means a fresh network needs to be trained"; docs/generalisation.md): with
+``make_params(energy_range=(low, high))`` each reset draws the episode's
+maximum energy uniformly among the integers of the range (the collector starts
+with it and refills to it); the state keeps it (``max_energy``). The
+``"general"`` observation shows it: a budget plane after ``M^agent``, and every
+energy divided by :data:`~jaxdc.core.energy.ENERGY_SCALE`.
 """
 
 from __future__ import annotations
@@ -44,7 +52,10 @@ from flax import struct
 from jaxdc.core import grid
 from jaxdc.core.energy import (
     ENERGY_METRICS,
+    ENERGY_SCALE,
     check_budget,
+    check_energy_range,
+    draw_max_energy,
     energy_used,
     observed_energy,
     observed_energy_bound,
@@ -74,6 +85,13 @@ CAPTURES = ("both", "opponent_moves")
 #: Energy on a step where the opponent lands on the collector before it moves (rule 1): "charged" -- one unit,
 #: "regardless of what action was taken"; "uncharged" -- the step ends before the energy rule.
 CAUGHT_ENERGIES = ("charged", "uncharged")
+#: What the collector observes: the thesis' planes, or the ``"general"`` ones that show the episode's budget.
+OBSERVATIONS = ("thesis", "general")
+#: The smallest maximum energy of an ``energy_range``: the smallest whole budget (one step out of the base).
+MIN_RANGE_ENERGY = 1.0
+#: The key of an episode's budget draw is ``fold_in(reset key, ENERGY_STREAM)``: the rest of the reset draws as
+#: without a range, so a range ``(E, E)`` plays the same games as the fixed energy ``E``.
+ENERGY_STREAM = 0x454E
 
 
 @struct.dataclass
@@ -83,6 +101,8 @@ class EnvParams:
     max_energy: jax.Array  # float32; the collector starts with it and refills to it in the base
     max_steps: jax.Array  # int32 step cap (truncation)
     chase_tie: jax.Array  # int32 index into opponents.CHASE_TIES
+    # Beyond the thesis: [2] float32, each episode's maximum energy is an int drawn from [low, high] (None: max_energy)
+    energy_range: jax.Array | None = None
 
 
 @struct.dataclass
@@ -97,6 +117,7 @@ class EnvState:
     outcome: jax.Array  # int32 index into OUTCOMES
     ep_reward: jax.Array  # float32
     ep_energy: jax.Array  # int32 energy consumed so far (see ENERGY_METRICS)
+    max_energy: jax.Array | None = None  # float32 this episode's maximum energy (with params.energy_range only)
 
 
 def _check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
@@ -144,6 +165,12 @@ class DCG(Environment[EnvState, EnvParams]):
         units over that square. A training distribution beyond the thesis (one
         network for every reward-area size, docs/dcg.md), as the DCP's
         ``min_total_reward`` is for the item count.
+      observation: ``"thesis"`` (default): the planes above. ``"general"``
+        (beyond the thesis): ``M^item``, ``M^agent`` with the energy divided
+        by :data:`~jaxdc.core.energy.ENERGY_SCALE`, then the episode's maximum
+        energy over the same scale on every cell, then the history (scaled
+        agent planes): ``[N, N, 3 + k]``, so one network can play every budget
+        (docs/generalisation.md).
     """
 
     outcomes: tuple[str, ...] = OUTCOMES
@@ -169,6 +196,7 @@ class DCG(Environment[EnvState, EnvParams]):
         opponent_enters_base: bool = True,
         caught_energy: str = "charged",
         min_reward_area: int | None = None,
+        observation: str = "thesis",
     ) -> None:
         self.grid_size = grid.check_grid_size(grid_size, max_cells=MAX_RANGE)  # the drop's uniform_index range
         if reward_area is not None:
@@ -200,6 +228,7 @@ class DCG(Environment[EnvState, EnvParams]):
         self.energy_metric = _check_choice("energy_metric", energy_metric, ENERGY_METRICS)
         self.capture = _check_choice("capture", capture, CAPTURES)
         self.caught_energy = _check_choice("caught_energy", caught_energy, CAUGHT_ENERGIES)
+        self.observation = _check_choice("observation", observation, OBSERVATIONS)
         for name, v in (("safe_base", safe_base), ("opponent_enters_base", opponent_enters_base)):
             if not isinstance(v, (bool, np.bool_)):
                 raise TypeError(f"{name} must be a bool, got {v!r}")
@@ -212,7 +241,8 @@ class DCG(Environment[EnvState, EnvParams]):
         return (self.grid_size, self.total_reward, self._strategies, self.history, self.obs_history,
                 self.history_fill, self.items_on_base, self.opponent_start, self.patrol_target,
                 self.reward_when_caught, self.energy_metric, self.reward_area, self.capture, self.safe_base,
-                self.opponent_enters_base, self.caught_energy, self.min_reward_area)
+                self.opponent_enters_base, self.caught_energy, self.min_reward_area) + (
+                    () if self.observation == "thesis" else (self.observation,))
 
     def __repr__(self) -> str:
         return (
@@ -225,6 +255,7 @@ class DCG(Environment[EnvState, EnvParams]):
                f", capture={self.capture!r}, safe_base={self.safe_base}, "
                f"opponent_enters_base={self.opponent_enters_base}, caught_energy={self.caught_energy!r}")
             + ("" if self.min_reward_area is None else f", min_reward_area={self.min_reward_area}")
+            + ("" if self.observation == "thesis" else f", observation={self.observation!r}")
             + ")"
         )
 
@@ -239,7 +270,8 @@ class DCG(Environment[EnvState, EnvParams]):
             CAPTURES[0], False, True, CAUGHT_ENERGIES[0])
 
     # -- parameters -------------------------------------------------------------------
-    def make_params(self, energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight") -> EnvParams:
+    def make_params(self, energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight",
+                    energy_range: Any = None) -> EnvParams:
         """Validated :class:`EnvParams`.
 
         Args:
@@ -248,15 +280,23 @@ class DCG(Environment[EnvState, EnvParams]):
           max_steps: the step cap (>= 1) that truncates an episode.
           chase_tie: how "moves towards" breaks ties, one of
             :data:`~jaxdc.dcg.opponents.CHASE_TIES`.
+          energy_range: ``None`` (the thesis: every episode has ``energy``) or
+            ``(low, high)``, whole numbers ``1 <= low <= high <= 2**24``: each
+            episode's maximum energy is drawn uniformly among the integers of
+            the range (beyond the thesis); ``energy`` is then not used.
         """
         e = check_budget("energy", energy)
         check_int("max_steps", max_steps, 1, INT32_MAX)
         _check_choice("chase_tie", chase_tie, CHASE_TIES)
-        return EnvParams(
+        params = EnvParams(
             max_energy=jnp.float32(e),
             max_steps=jnp.int32(max_steps),
             chase_tie=jnp.int32(CHASE_TIES.index(chase_tie)),
         )
+        if energy_range is None:
+            return params
+        low, high = check_energy_range(energy_range, MIN_RANGE_ENERGY)
+        return params.replace(max_energy=jnp.float32(high), energy_range=jnp.asarray([low, high], jnp.float32))
 
     def reward_area_cells(self, size: int | None = None) -> np.ndarray:
         """Row-major flat indices of the cells that can hold an item (section 5.5.5, Fig. 5.10).
@@ -287,22 +327,38 @@ class DCG(Environment[EnvState, EnvParams]):
             table[i, : a.size] = a
         return jnp.asarray(table), jnp.asarray([a.size for a in areas], jnp.int32)
 
+    @property
+    def state_channels(self) -> int:
+        """Channels of the current state at the front of an observation: 2 (thesis), 3 (``"general"``: + budget)."""
+        return 2 if self.observation == "thesis" else 3
+
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
-        return (self.grid_size, self.grid_size, 2 + (self.history if self.obs_history else 0))
+        return (self.grid_size, self.grid_size, self.state_channels + (self.history if self.obs_history else 0))
 
     def observation_bounds(self, params: EnvParams) -> tuple[np.ndarray, np.ndarray]:
         """Items in ``[0, total_reward]``; agent and history planes in ``[-1, max_energy]`` (the opponent is -1;
-        ``max_steps`` stands for unlimited energy)."""
+        ``max_steps`` stands for unlimited energy); ``"general"``: energies (and the budget plane, in
+        ``[0, max_energy]``) over :data:`~jaxdc.core.energy.ENERGY_SCALE`."""
         shape = self.observation_shape(params)
+        scale = 1.0 if self.observation == "thesis" else ENERGY_SCALE
         low = np.full(shape, -1.0, np.float32)
-        high = np.full(shape, observed_energy_bound(params.max_energy, params.max_steps), np.float32)
+        high = np.full(shape, observed_energy_bound(params.max_energy, params.max_steps) / scale, np.float32)
         low[..., 0], high[..., 0] = 0.0, self.total_reward
+        if self.observation != "thesis":
+            low[..., 2] = 0.0
         return low, high
+
+    def max_energy_of(self, state: EnvState, params: EnvParams) -> jax.Array:
+        """The episode's maximum energy: ``params.max_energy``, or the one it drew from ``params.energy_range``."""
+        return params.max_energy if state.max_energy is None else state.max_energy
 
     # -- dynamics ---------------------------------------------------------------------
     def reset_env(self, key: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
         """The initial state of section 5.3: collector in the base, random opponent, items and strategy."""
         n, cells = self.grid_size, self.grid_size**2
+        budget = {}
+        if params.energy_range is not None:  # its own stream: the rest draws as with a fixed energy
+            budget["max_energy"] = draw_max_energy(jax.random.fold_in(key, ENERGY_STREAM), params.energy_range)
         k_items, k_opp, k_target, k_strat = jax.random.split(key, 4)
         if self.reward_area is None:
             items, _ = drop_units(k_items, self.total_reward, cells, 0 if self.items_on_base else 1)
@@ -329,7 +385,7 @@ class DCG(Environment[EnvState, EnvParams]):
         home = grid.unflat_index(start, n)
         state = EnvState(
             pos=jnp.zeros(2, jnp.int32),
-            energy=params.max_energy,
+            energy=budget.get("max_energy", params.max_energy),
             items=items.reshape(n, n),
             opponent=OpponentState(pos=home, home=home, target=grid.unflat_index(target, n), phase=jnp.int32(0)),
             strategy=uniform_index(k_strat, (), len(self.strategies)),
@@ -338,9 +394,10 @@ class DCG(Environment[EnvState, EnvParams]):
             outcome=jnp.int32(RUNNING),
             ep_reward=jnp.float32(0.0),
             ep_energy=jnp.int32(0),
+            **budget,
         )
         if self.history_fill == "first":
-            plane = self.agent_plane(state, params)
+            plane = self.observed_agent_plane(state, params)
             state = dataclasses.replace(state, history=jnp.repeat(plane[..., None], self.history, axis=-1))
         return self.observe(state, params), state
 
@@ -379,7 +436,7 @@ class DCG(Environment[EnvState, EnvParams]):
         reward = jnp.where(collect, item, 0.0)
         items = state.items.at[pos[0], pos[1]].set(jnp.where(collect, 0.0, item))
         in_base = jnp.all(pos == 0)  # (4)
-        energy, out_of_energy = step_energy(state.energy, params.max_energy, in_base)
+        energy, out_of_energy = step_energy(state.energy, self.max_energy_of(state, params), in_base)
         used = energy_used(self.energy_metric, in_base, jnp.all(state.pos == 0))
         if self.caught_energy == "uncharged":  # the step ends at rule (1), before the energy rule
             energy = jnp.where(caught_first, state.energy, energy)
@@ -390,7 +447,8 @@ class DCG(Environment[EnvState, EnvParams]):
             [CAUGHT, ENERGY, CLEARED, TRUNCATED],
             RUNNING,
         ).astype(jnp.int32)
-        history = jnp.concatenate([self.agent_plane(state, params)[..., None], state.history[..., :-1]], axis=-1)
+        history = jnp.concatenate([self.observed_agent_plane(state, params)[..., None], state.history[..., :-1]],
+                                  axis=-1)
         new_state = dataclasses.replace(
             state,
             pos=pos, energy=energy, items=items, opponent=opp, history=history, time=time, outcome=outcome,
@@ -430,12 +488,25 @@ class DCG(Environment[EnvState, EnvParams]):
         energy = observed_energy(state.energy, params.max_steps)
         return jnp.where(opp, -1.0, jnp.where(me, energy, 0.0)).astype(jnp.float32)
 
+    def observed_agent_plane(self, state: EnvState, params: EnvParams) -> jax.Array:
+        """:meth:`agent_plane` as the observation (and its history) shows it: ``"general"`` divides the energy by
+        :data:`~jaxdc.core.energy.ENERGY_SCALE` (the opponent stays -1)."""
+        plane = self.agent_plane(state, params)
+        return plane if self.observation == "thesis" else jnp.where(plane > 0, plane / ENERGY_SCALE, plane)
+
     def planes(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """The current state ``s_t`` as two planes ``[N, N, 2]``: ``M^item``, ``M^agent``."""
-        return jnp.stack([state.items, self.agent_plane(state, params)], axis=-1)
+        """The current state ``s_t`` as two planes ``[N, N, 2]``: ``M^item``, ``M^agent``; ``"general"``: three,
+        ``M^agent`` scaled, then the episode's maximum energy over the scale on every cell."""
+        if self.observation == "thesis":
+            return jnp.stack([state.items, self.agent_plane(state, params)], axis=-1)
+        n = self.grid_size
+        budget = observed_energy(self.max_energy_of(state, params), params.max_steps) / ENERGY_SCALE
+        return jnp.stack([state.items, self.observed_agent_plane(state, params),
+                          jnp.full((n, n), budget, jnp.float32)], axis=-1)
 
     def observe(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """``[N, N, 2 + k]`` (planes then history) with ``obs_history``, else ``[N, N, 2]``."""
+        """``[N, N, 2 + k]`` (planes then history) with ``obs_history``, else ``[N, N, 2]`` (``"general"``: 3 state
+        planes)."""
         planes = self.planes(state, params)
         if self.obs_history:
             return jnp.concatenate([planes, state.history], axis=-1)

@@ -33,7 +33,9 @@ from flax import struct
 from jaxdc.core import grid
 from jaxdc.core.energy import (
     ENERGY_METRICS,
+    ENERGY_SCALE,
     check_budget,
+    draw_max_energy,
     energy_used,
     observed_energy,
     observed_energy_bound,
@@ -55,9 +57,6 @@ ITEM_ORDERS = ("drop", "row_major")
 #: What the agent observes: the thesis' two planes, or four planes a network can generalise from (beyond the
 #: thesis: the risk map and the budget, docs/generalisation.md).
 OBSERVATIONS = ("thesis", "general")
-#: The fixed scale of the energy planes of the ``"general"`` observation: energies are divided by it, so any
-#: budget up to 64 shows in [0, 1] and larger ones stay finite (the observation space grows with the budget).
-ENERGY_SCALE = 64.0
 
 
 @struct.dataclass
@@ -251,9 +250,7 @@ class DCP(Environment[EnvState, EnvParams]):
         assert params.maps is not None and params.energy_range is not None and params.init_fraction is not None
         k_map, k_energy = jax.random.split(key)
         map_id = uniform_index(k_map, (), params.maps.shape[0])
-        low, high = params.energy_range[0], params.energy_range[1]
-        max_e = jnp.floor(low + jax.random.uniform(k_energy) * (high - low + 1.0))
-        max_e = jnp.minimum(max_e, high).astype(jnp.float32)
+        max_e = draw_max_energy(k_energy, params.energy_range)
         init_e = jnp.clip(jnp.round(params.init_fraction * max_e), 1.0, max_e).astype(jnp.float32)
         return map_id, init_e, max_e
 
