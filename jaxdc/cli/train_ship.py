@@ -59,7 +59,7 @@ def main(argv=None) -> int:
         p.error(f"--export-only: {', '.join(dcg_names)} are written by train.dcg --ship; "
                 "train them (a finished run folder is resumed)")
     try:
-        exported = [n for n in names if n not in DCG_STRONG]
+        exported = [n for n in names if EVERY[n].problem != "dcg"]
         check_output_folder(args.out, "--out", files=[f"{n}.{ext}" for n in exported for ext in ("msgpack", "json")],
                             inputs={"--runs": [os.path.join(args.runs, n, f) for n in exported
                                                for f in ("checkpoints", "config.json", "metrics.csv")]})

@@ -56,7 +56,8 @@ def _strategies(name: str, value: Any) -> Any:
 
 
 def _energy_range(name: str, value: Any) -> tuple[float, float]:
-    """A stored range of maximum energies: a JSON pair ``[low, high]`` (:func:`jaxdc.core.energy.check_energy_range`)."""
+    """A stored range of maximum energies: a JSON pair ``[low, high]``
+    (:func:`jaxdc.core.energy.check_energy_range`)."""
     from jaxdc.core.energy import check_energy_range
 
     if not isinstance(value, list):
@@ -106,12 +107,6 @@ def check_setting(meta: dict, where: str) -> dict:
     except (TypeError, ValueError) as e:
         raise ValueError(f"{where}: its setting does not build the game: {e}") from None
     return meta
-
-
-def make_network(name: str, history: int = 10, planes: int = 2) -> Any:
-    """The flax module of ``name`` (:data:`NETS`) for a history of ``k = history`` planes after ``planes`` state
-    planes."""
-    return build("dcg", name, history=history, state_channels=planes)
 
 
 def state_channels(meta: dict) -> int:
