@@ -52,21 +52,19 @@ from flax import struct
 from jaxdc.core import grid
 from jaxdc.core.energy import (
     ENERGY_METRICS,
-    ENERGY_SCALE,
     check_budget,
     check_energy_range,
     draw_max_energy,
     energy_used,
-    observed_energy,
-    observed_energy_bound,
     step_energy,
 )
 from jaxdc.core.env import Environment, Transition
 from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, uniform_index
 from jaxdc.core.scene import Scene
-from jaxdc.core.validate import INT32_MAX, check_int, is_int
+from jaxdc.core.validate import INT32_MAX, check_choice, check_int, is_int
 from jaxdc.dcg import opponents as opp_lib
 from jaxdc.dcg import picture
+from jaxdc.dcg.observation import CollectorObservation
 from jaxdc.dcg.opponents import CHASE_TIES, STANDARD_STRATEGIES, OpponentState
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
@@ -120,13 +118,7 @@ class EnvState:
     max_energy: jax.Array | None = None  # float32 this episode's maximum energy (with params.energy_range only)
 
 
-def _check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
-    if value not in choices:
-        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
-    return value
-
-
-class DCG(Environment[EnvState, EnvParams]):
+class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
     """The DCG environment (section 5.3) with the gymnax-style functional API.
 
     Args:
@@ -220,15 +212,15 @@ class DCG(Environment[EnvState, EnvParams]):
         self.strategies = tuple(s.name for s in self._strategies)
         self.history = check_int("history (k)", history, 1)
         self.obs_history = bool(obs_history)
-        self.history_fill = _check_choice("history_fill", history_fill, HISTORY_FILLS)
+        self.history_fill = check_choice("history_fill", history_fill, HISTORY_FILLS)
         self.items_on_base = bool(items_on_base)
-        self.opponent_start = _check_choice("opponent_start", opponent_start, OPPONENT_STARTS)
-        self.patrol_target = _check_choice("patrol_target", patrol_target, PATROL_TARGETS)
+        self.opponent_start = check_choice("opponent_start", opponent_start, OPPONENT_STARTS)
+        self.patrol_target = check_choice("patrol_target", patrol_target, PATROL_TARGETS)
         self.reward_when_caught = bool(reward_when_caught)
-        self.energy_metric = _check_choice("energy_metric", energy_metric, ENERGY_METRICS)
-        self.capture = _check_choice("capture", capture, CAPTURES)
-        self.caught_energy = _check_choice("caught_energy", caught_energy, CAUGHT_ENERGIES)
-        self.observation = _check_choice("observation", observation, OBSERVATIONS)
+        self.energy_metric = check_choice("energy_metric", energy_metric, ENERGY_METRICS)
+        self.capture = check_choice("capture", capture, CAPTURES)
+        self.caught_energy = check_choice("caught_energy", caught_energy, CAUGHT_ENERGIES)
+        self.observation = check_choice("observation", observation, OBSERVATIONS)
         for name, v in (("safe_base", safe_base), ("opponent_enters_base", opponent_enters_base)):
             if not isinstance(v, (bool, np.bool_)):
                 raise TypeError(f"{name} must be a bool, got {v!r}")
@@ -287,7 +279,7 @@ class DCG(Environment[EnvState, EnvParams]):
         """
         e = check_budget("energy", energy)
         check_int("max_steps", max_steps, 1, INT32_MAX)
-        _check_choice("chase_tie", chase_tie, CHASE_TIES)
+        check_choice("chase_tie", chase_tie, CHASE_TIES)
         params = EnvParams(
             max_energy=jnp.float32(e),
             max_steps=jnp.int32(max_steps),
@@ -296,7 +288,7 @@ class DCG(Environment[EnvState, EnvParams]):
         if energy_range is None:
             return params
         low, high = check_energy_range(energy_range, MIN_RANGE_ENERGY)
-        return params.replace(max_energy=jnp.float32(high), energy_range=jnp.asarray([low, high], jnp.float32))
+        return dataclasses.replace(params, max_energy=jnp.float32(high), energy_range=jnp.asarray([low, high], jnp.float32))
 
     def reward_area_cells(self, size: int | None = None) -> np.ndarray:
         """Row-major flat indices of the cells that can hold an item (section 5.5.5, Fig. 5.10).
@@ -326,27 +318,6 @@ class DCG(Environment[EnvState, EnvParams]):
         for i, a in enumerate(areas):
             table[i, : a.size] = a
         return jnp.asarray(table), jnp.asarray([a.size for a in areas], jnp.int32)
-
-    @property
-    def state_channels(self) -> int:
-        """Channels of the current state at the front of an observation: 2 (thesis), 3 (``"general"``: + budget)."""
-        return 2 if self.observation == "thesis" else 3
-
-    def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
-        return (self.grid_size, self.grid_size, self.state_channels + (self.history if self.obs_history else 0))
-
-    def observation_bounds(self, params: EnvParams) -> tuple[np.ndarray, np.ndarray]:
-        """Items in ``[0, total_reward]``; agent and history planes in ``[-1, max_energy]`` (the opponent is -1;
-        ``max_steps`` stands for unlimited energy); ``"general"``: energies (and the budget plane, in
-        ``[0, max_energy]``) over :data:`~jaxdc.core.energy.ENERGY_SCALE`."""
-        shape = self.observation_shape(params)
-        scale = 1.0 if self.observation == "thesis" else ENERGY_SCALE
-        low = np.full(shape, -1.0, np.float32)
-        high = np.full(shape, observed_energy_bound(params.max_energy, params.max_steps) / scale, np.float32)
-        low[..., 0], high[..., 0] = 0.0, self.total_reward
-        if self.observation != "thesis":
-            low[..., 2] = 0.0
-        return low, high
 
     def max_energy_of(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The episode's maximum energy: ``params.max_energy``, or the one it drew from ``params.energy_range``."""
@@ -466,51 +437,6 @@ class DCG(Environment[EnvState, EnvParams]):
             "invalid_action": invalid,
         }
         return self.observe(new_state, params), new_state, reward, terminated, truncated, info
-
-    # -- observations -----------------------------------------------------------------
-    def opponent_hidden(self, state: EnvState) -> jax.Array:
-        """Whether the collector cannot see the opponent: a fog-hiding strategy and the collector in the fog."""
-        hides = jnp.asarray([s.hides_in_fog for s in self._strategies])
-        return hides[state.strategy] & opp_lib.in_fog(state.pos)
-
-    def agent_plane(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """``M^agent`` as the collector observes it (section 5.4.1), ``[N, N]``.
-
-        The collector's energy at its cell, -1 at the opponent's (drawn over the
-        collector when they share a cell), 0 elsewhere; the opponent is left out
-        while :meth:`opponent_hidden`. An unlimited budget shows as ``max_steps``
-        (:func:`~jaxdc.core.energy.observed_energy`).
-        """
-        n = self.grid_size
-        rows, cols = jnp.arange(n)[:, None], jnp.arange(n)[None, :]
-        me = (rows == state.pos[0]) & (cols == state.pos[1])
-        opp = (rows == state.opponent.pos[0]) & (cols == state.opponent.pos[1]) & ~self.opponent_hidden(state)
-        energy = observed_energy(state.energy, params.max_steps)
-        return jnp.where(opp, -1.0, jnp.where(me, energy, 0.0)).astype(jnp.float32)
-
-    def observed_agent_plane(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """:meth:`agent_plane` as the observation (and its history) shows it: ``"general"`` divides the energy by
-        :data:`~jaxdc.core.energy.ENERGY_SCALE` (the opponent stays -1)."""
-        plane = self.agent_plane(state, params)
-        return plane if self.observation == "thesis" else jnp.where(plane > 0, plane / ENERGY_SCALE, plane)
-
-    def planes(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """The current state ``s_t`` as two planes ``[N, N, 2]``: ``M^item``, ``M^agent``; ``"general"``: three,
-        ``M^agent`` scaled, then the episode's maximum energy over the scale on every cell."""
-        if self.observation == "thesis":
-            return jnp.stack([state.items, self.agent_plane(state, params)], axis=-1)
-        n = self.grid_size
-        budget = observed_energy(self.max_energy_of(state, params), params.max_steps) / ENERGY_SCALE
-        return jnp.stack([state.items, self.observed_agent_plane(state, params),
-                          jnp.full((n, n), budget, jnp.float32)], axis=-1)
-
-    def observe(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """``[N, N, 2 + k]`` (planes then history) with ``obs_history``, else ``[N, N, 2]`` (``"general"``: 3 state
-        planes)."""
-        planes = self.planes(state, params)
-        if self.obs_history:
-            return jnp.concatenate([planes, state.history], axis=-1)
-        return planes
 
     # -- pictures (outside jit; jaxdc.dcg.picture) ----------------------------------------
     def render_ansi(self, state: EnvState, params: EnvParams) -> str:
