@@ -28,7 +28,7 @@ import os
 import shutil
 import sys
 import time
-from collections.abc import Callable, Collection
+from collections.abc import Callable, Collection, Iterator
 from typing import Any, Union
 
 import jax
@@ -58,7 +58,7 @@ class Damaged(ValueError):
 
 
 @contextlib.contextmanager
-def writing(path: PathLike):
+def writing(path: PathLike) -> Iterator[None]:
     """Turn an ``OSError`` while writing ``path`` into a :class:`WriteError` naming it."""
     try:
         yield
