@@ -29,6 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import serialization
 
+from jaxdc.core.tree_check import non_finite, slash_path
 from jaxdc.core.validate import INT32_MAX, check_choice, check_float, check_int
 from jaxdc.io import atomic_write_set, json_text, read_json
 from jaxdc.metadata import FORMAT, check_values, upgrade
@@ -156,14 +157,8 @@ def _paths(path: PathLike) -> tuple[str, str]:
 def non_finite_leaf(params: Any) -> str | None:
     """The ``/``-joined path of the first parameter array holding a NaN or an infinity, or ``None``
     (traced leaves, inside a jit, are skipped: they are checked where their values are known)."""
-    flat = jax.tree_util.tree_flatten_with_path(params)[0]
-    for path, leaf in flat:
-        if isinstance(leaf, jax.core.Tracer):
-            continue
-        a = np.asarray(leaf)
-        if np.issubdtype(a.dtype, np.inexact) and not np.all(np.isfinite(a)):
-            return "/" + "/".join(str(getattr(k, "key", getattr(k, "idx", k))) for k in path)
-    return None
+    bad = non_finite(params, key=slash_path)
+    return bad[0][0] if bad else None
 
 
 def save(path: PathLike, params: Any, metadata: dict) -> str:

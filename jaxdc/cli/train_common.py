@@ -72,6 +72,8 @@ def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eva
     p.add_argument("--layout", choices=LAYOUTS, default="loop",
                    help="loop: one jitted update per Python iteration (faster on CPU); scan: updates in lax.scan")
     p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
+    p.add_argument("--resume-step", type=positive_int("--resume-step"), default=None, metavar="STEP",
+                   help="with --resume: continue from checkpoint STEP instead (the later checkpoints are deleted)")
     p.add_argument("--eval-every", type=positive_int("--eval-every"), default=eval_every,
                    help="environment steps between evaluations and checkpoints")
     p.add_argument("--eval-episodes", type=positive_int("--eval-episodes"), default=eval_episodes)
@@ -238,6 +240,7 @@ def learner_options_set(args: argparse.Namespace) -> list[str]:
 def run_control(args: argparse.Namespace, out: str) -> RunControl:
     """The :class:`~jaxdc.training.loop.RunControl` of the parsed run-control flags, into run folder ``out``."""
     return RunControl(out=out, seeds=tuple(args.seeds or [args.seed]), devices=args.devices, resume=args.resume,
+                      resume_step=args.resume_step,
                       eval_every=args.eval_every, keep=args.keep, layout=args.layout, progress=not args.no_progress,
                       tensorboard=bool(getattr(args, "tensorboard", False)))
 

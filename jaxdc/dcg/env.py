@@ -288,7 +288,8 @@ class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
         if energy_range is None:
             return params
         low, high = check_energy_range(energy_range, MIN_RANGE_ENERGY)
-        return dataclasses.replace(params, max_energy=jnp.float32(high), energy_range=jnp.asarray([low, high], jnp.float32))
+        return dataclasses.replace(params, max_energy=jnp.float32(high),
+                                   energy_range=jnp.asarray([low, high], jnp.float32))
 
     def reward_area_cells(self, size: int | None = None) -> np.ndarray:
         """Row-major flat indices of the cells that can hold an item (section 5.5.5, Fig. 5.10).

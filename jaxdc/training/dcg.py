@@ -175,6 +175,7 @@ class DCGRun(TrainingRun):
         if s.config.aux_lr is not None and s.net != "omn_conn":
             raise SettingError(f"{{0}} sets OMN's learning rate and applies to {{1}} omn_conn only, not "
                                f"{SettingError.text(repr(s.net))}", "aux_lr", "net")
+        self.claim(control, run_metadata(s, self.env, control.seeds))  # lock, check a resume: before the build
         check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
         aux = s.has_aux
         trainer, mesh = spread(a2c.make_train(s.config, self.env, self.env_params, self.net,
