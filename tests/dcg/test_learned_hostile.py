@@ -4,25 +4,16 @@ memory is refused before any network is built."""
 
 from __future__ import annotations
 
-import json
-import os
-import shutil
-
 import pytest
 
 from jaxdc import pretrained
 from jaxdc.core import memory
 from jaxdc.dcg import learned as learned_lib
+from tests.support.sidecars import assert_refused_naming_file_and_key, copy_with
 
 
 def _copy(tmp_path, **changes):
-    src = pretrained.shipped("dcg", pretrained.shipped_names("dcg")[0])
-    blob = tmp_path / "net.msgpack"
-    shutil.copy(src, blob)
-    meta = json.load(open(src[: -len(".msgpack")] + ".json"))
-    meta.update(changes)
-    (tmp_path / "net.json").write_text(json.dumps(meta))
-    return str(blob)
+    return copy_with(tmp_path, "dcg", pretrained.shipped_names("dcg")[0], **changes)
 
 
 @pytest.mark.parametrize("changes, key, words", [
@@ -40,13 +31,7 @@ def _copy(tmp_path, **changes):
     ({"env": {"patrol_target": 3}}, "env", "env.patrol_target"),
 ])
 def test_bad_sidecar_setting_names_the_file_and_key(tmp_path, changes, key, words):
-    blob = _copy(tmp_path, **changes)
-    with pytest.raises(ValueError) as e:
-        learned_lib.load(blob)
-    text = str(e.value)
-    assert os.path.join(str(tmp_path), "net.json") in text and key in text, text
-    assert words in text, text
-    assert "parameter file" in text or text.startswith(os.path.join(str(tmp_path), "net.json")), text
+    assert_refused_naming_file_and_key(learned_lib.load, _copy(tmp_path, **changes), key, words)
 
 
 def test_history_beyond_memory_refused_before_building(tmp_path, monkeypatch):

@@ -3,28 +3,15 @@ refused with the file and the key, by the checks of the flags, strict about JSON
 
 from __future__ import annotations
 
-import json
-import os
-import shutil
-
 import pytest
 
 from jaxdc import pretrained
 from jaxdc.dcp import learned as learned_lib
+from tests.support.sidecars import assert_refused_naming_file_and_key, copy_with
 
 
 def _copy(tmp_path, **changes):
-    src = pretrained.shipped("dcp", "enn")
-    blob = tmp_path / "net.msgpack"
-    shutil.copy(src, blob)
-    meta = json.load(open(src[: -len(".msgpack")] + ".json"))
-    for key, value in changes.items():
-        if key.startswith("env_"):
-            meta.setdefault("env", {})[key[4:]] = value
-        else:
-            meta[key] = value
-    (tmp_path / "net.json").write_text(json.dumps(meta))
-    return str(blob)
+    return copy_with(tmp_path, "dcp", "enn", **changes)
 
 
 @pytest.mark.parametrize("changes, key, words", [
@@ -44,13 +31,7 @@ def _copy(tmp_path, **changes):
     ({"init_fraction": 2.0}, "init_fraction", "<= 1"),
 ])
 def test_bad_sidecar_setting_names_the_file_and_key(tmp_path, changes, key, words):
-    blob = _copy(tmp_path, **changes)
-    with pytest.raises(ValueError) as e:
-        learned_lib.load(blob)
-    text = str(e.value)
-    assert os.path.join(str(tmp_path), "net.json") in text and key in text, text
-    assert words in text, text
-    assert "parameter file" in text or text.startswith(os.path.join(str(tmp_path), "net.json")), text
+    assert_refused_naming_file_and_key(learned_lib.load, _copy(tmp_path, **changes), key, words)
 
 
 def test_energy_above_the_maximum_names_the_file(tmp_path):
