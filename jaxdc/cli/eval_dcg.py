@@ -46,6 +46,7 @@ import sys
 import jax
 
 from jaxdc import pretrained
+from jaxdc.cli import eval_dcg_energies as energies
 from jaxdc.cli.args import integer, positive_float, positive_int, seed
 from jaxdc.cli.eval_dcg_settings import EvaluateSettings, FigureSettings, OptimumSettings, RenderSettings
 from jaxdc.cli.runner import run
@@ -54,7 +55,6 @@ from jaxdc.core.trajectory import play_episode
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis.claims import claims
 from jaxdc.dcg.analysis.collector_eval import evaluate
-from jaxdc.dcg.analysis.energies import energy_markdown, energy_table
 from jaxdc.dcg.analysis.experiment import group_key, network_pool, run_experiment, stored_standard
 from jaxdc.dcg.analysis.figures import EXPERIMENTS, FIGURES, missing
 from jaxdc.dcg.analysis.report import (
@@ -237,21 +237,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=RESULTS, help="folder for the result JSON")
     p.set_defaults(run=_optimum, error=p.error)
 
-    p = sub.add_parser("energies", prog=f"{PROG} energies", help="one collector at several maximum energies",
-                       description="Play one collector at each maximum energy beside the full-information bound there "
-                                   "and the shipped per-energy collectors of Figs. 5.8-5.9 (beyond the thesis).")
-    _add_network(p)
-    p.add_argument("--energies", nargs="+", type=integer("--energies", low=1, high=int(MAX_FINITE_ENERGY)),
-                   default=[8, 10, 12, 15, 20, 25], help="whole maximum energies (8 10 12 15 20 25)")
-    p.add_argument("--episodes", type=positive_int("--episodes"), default=2000, help="games per network and energy")
-    p.add_argument("--bound-episodes", type=positive_int("--bound-episodes"), default=500,
-                   help="games the bound is estimated over at each energy (500)")
-    p.add_argument("--seed", type=seed("--seed"), default=0)
-    p.add_argument("--greedy", action="store_true", help="argmax policy (default: sample from pi, as the thesis)")
-    p.add_argument("--no-specialists", action="store_true", help="skip the shipped per-energy collectors")
-    p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
-    p.add_argument("--out", default=RESULTS, help="folder for the JSON and markdown")
-    p.set_defaults(run=_energies, error=p.error)
+    energies.add_parser(sub, PROG, _add_network, RESULTS)
     return parser
 
 
@@ -426,30 +412,6 @@ def _optimum(args, command) -> int:
     else:
         print(optimum_text(out["optimum"], s.episodes))
         print(f"written {path}")
-    return 0
-
-
-def _energies(args, command) -> int:
-    _check_folders(args, "--out")
-    enable_compilation_cache()
-    try:
-        learned = _load(args.checkpoint, args.net)
-        say = None if args.json else (lambda m: print(m, file=sys.stderr))
-        table = energy_table(learned, args.energies, episodes=args.episodes, seed=args.seed,
-                             bound_episodes=args.bound_episodes, greedy=args.greedy,
-                             specialists=not args.no_specialists, progress=say)
-    except (TypeError, ValueError) as e:
-        args.error(str(e))
-    table["command"] = command
-    md = energy_markdown(table)
-    line = json_text(table, indent=None)
-    stem = os.path.join(args.out, f"energies_{learned.net_name}_s{args.seed}")
-    atomic_write_set({stem + ".json": json_text({**table, "provenance": provenance()}) + "\n", stem + ".md": md})
-    if args.json:
-        print(line)
-    else:
-        print(md)
-        print(f"written {stem}.json and {stem}.md", file=sys.stderr)
     return 0
 
 

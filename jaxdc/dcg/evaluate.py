@@ -74,6 +74,10 @@ class Scored:
     def __hash__(self):
         return hash(("Scored", self.env))
 
+    def check_params(self, params: EnvParams) -> EnvParams:
+        """The game's check (:meth:`jaxdc.core.env.Environment.check_params`): params of another grid are refused."""
+        return self.env.check_params(params)
+
     def reset_env(self, key, params: EnvParams):
         obs, state = self.env.reset_env(key, params)
         return obs, ScoredState(state, jnp.int32(0), jnp.int32(0))

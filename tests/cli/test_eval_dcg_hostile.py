@@ -263,6 +263,18 @@ def test_evaluate_over_its_checkpoint_refused(capsys, tmp_path, tiny):
     assert open(sidecar).read() == before
 
 
+def test_energies_over_its_checkpoint_refused(capsys, tmp_path, tiny):
+    """``energies`` names its table after the network, known once it is loaded: still refused before any game."""
+    sidecar = tiny[: -len(".msgpack")] + ".json"
+    before = open(sidecar).read()
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "energies_vnn_s0.md").symlink_to(sidecar)
+    _refused(capsys, ["energies", "--checkpoint", tiny, "--energies", "3", "--out", str(out)],
+             "--out file", "would overwrite the input --checkpoint")
+    assert open(sidecar).read() == before
+
+
 def test_figure_over_a_network_of_nets_dir_refused(capsys, tmp_path, tiny):
     nets = os.path.dirname(tiny)
     (tmp_path / "img").mkdir()
