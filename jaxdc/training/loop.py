@@ -294,8 +294,9 @@ class TrainingRun:
             state, metrics = self._updates(state, n, bar)
             metrics = jax.device_get(metrics)
             wall = time.perf_counter() - t0
+            whole = parallel.host(state)  # several processes: all take part, each gets the whole state
             problem = ("the loss became NaN/inf" if not np.all(np.isfinite(metrics["loss"]))
-                       else guards.state_problem(state))
+                       else guards.state_problem(whole))
             if problem:
                 bar.close()
                 saved = checkpoint.latest_step(self.ckpt_dir)
@@ -305,7 +306,6 @@ class TrainingRun:
                       file=sys.stderr)
                 return {"status": "nan", "updates": update}
             update += n
-            whole = parallel.host(state)  # several processes: all take part, each gets the whole state
             self.final_state = whole
             if not is_primary():  # the others only step their environments
                 continue

@@ -135,7 +135,9 @@ def test_resume_refusals_come_before_the_trainer_build(finished, tmp_path, monke
             "truncated")
     os.remove(os.path.join(out, "metrics.csv"))
     os.mkdir(os.path.join(out, "metrics.csv"))
-    refused(train_dcp.main, TINY + ["--out", out, "--resume"], capsys, "metrics.csv is not a file (a folder)")
+    # the output-path check of the CLI (jaxdc.io) sees it first: a folder where the run writes its metrics file
+    refused(train_dcp.main, TINY + ["--out", out, "--resume"], capsys, os.path.join(out, "metrics.csv"),
+            "is a folder, not a file")
     assert sorted(os.listdir(out)) == sorted(os.listdir(finished))  # nothing written, the lock file removed
 
 
