@@ -1,7 +1,7 @@
 """Linear policy and value heads on a feature map, for the learners without heuristics (section 4.5.5's linear
 learner and the plain CNN ablation).
 
-A subclass says how ``obs`` becomes features (:meth:`LinearHeads.features`); the heads, the call and
+A subclass says how ``obs`` becomes features (its ``features(obs)`` method); the heads, the call and
 ``value`` are shared. Neither reads ENN's heuristics (``uses_heuristics = False``).
 """
 
@@ -26,6 +26,7 @@ class LinearHeads(nn.Module):
         self.value_out = nn.Dense(1)
 
     def features(self, obs: Any) -> jax.Array:
+        """``obs [B, ...] -> [B, F]``: what the heads read (written by each subclass)."""
         raise NotImplementedError
 
     def __call__(self, obs: Any, heuristics: Any = None) -> tuple[jax.Array, jax.Array]:
