@@ -183,7 +183,7 @@ class Environment(Generic[S, P]):
         (:meth:`check_params`, :meth:`check_state`). The shapes are static: under
         ``jit`` the check runs when the step is traced (the first call with those
         shapes), never inside the compiled step, which cannot raise; code that
-        calls :meth:`step_env` directly skips it and must check at its entry.
+        calls ``step_env`` directly skips it and must check at its entry.
         """
         if params is None:
             params = self.default_params

@@ -17,7 +17,7 @@ from jaxdc.core.energy import ENERGY_SCALE, observed_energy, observed_energy_bou
 from jaxdc.dcg import opponents as opp_lib
 
 if TYPE_CHECKING:
-    from jaxdc.dcg.env import EnvParams, EnvState
+    import jaxdc.dcg.env
 
 
 class CollectorObservation:
@@ -30,7 +30,7 @@ class CollectorObservation:
     total_reward: int
     _strategies: Any
 
-    def max_energy_of(self, state: EnvState, params: EnvParams) -> jax.Array:
+    def max_energy_of(self, state: jaxdc.dcg.env.EnvState, params: jaxdc.dcg.env.EnvParams) -> jax.Array:
         raise NotImplementedError
 
     @property
@@ -38,10 +38,10 @@ class CollectorObservation:
         """Channels of the current state at the front of an observation: 2 (thesis), 3 (``"general"``: + budget)."""
         return 2 if self.observation == "thesis" else 3
 
-    def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
+    def observation_shape(self, params: jaxdc.dcg.env.EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, self.state_channels + (self.history if self.obs_history else 0))
 
-    def observation_bounds(self, params: EnvParams) -> tuple[np.ndarray, np.ndarray]:
+    def observation_bounds(self, params: jaxdc.dcg.env.EnvParams) -> tuple[np.ndarray, np.ndarray]:
         """Items in ``[0, total_reward]``; agent and history planes in ``[-1, max_energy]`` (the opponent is -1;
         ``max_steps`` stands for unlimited energy); ``"general"``: energies (and the budget plane, in
         ``[0, max_energy]``) over :data:`~jaxdc.core.energy.ENERGY_SCALE`."""
@@ -55,12 +55,12 @@ class CollectorObservation:
         return low, high
 
 
-    def opponent_hidden(self, state: EnvState) -> jax.Array:
+    def opponent_hidden(self, state: jaxdc.dcg.env.EnvState) -> jax.Array:
         """Whether the collector cannot see the opponent: a fog-hiding strategy and the collector in the fog."""
         hides = jnp.asarray([s.hides_in_fog for s in self._strategies])
         return hides[state.strategy] & opp_lib.in_fog(state.pos)
 
-    def agent_plane(self, state: EnvState, params: EnvParams) -> jax.Array:
+    def agent_plane(self, state: jaxdc.dcg.env.EnvState, params: jaxdc.dcg.env.EnvParams) -> jax.Array:
         """``M^agent`` as the collector observes it (section 5.4.1), ``[N, N]``.
 
         The collector's energy at its cell, -1 at the opponent's (drawn over the
@@ -75,13 +75,13 @@ class CollectorObservation:
         energy = observed_energy(state.energy, params.max_steps)
         return jnp.where(opp, -1.0, jnp.where(me, energy, 0.0)).astype(jnp.float32)
 
-    def observed_agent_plane(self, state: EnvState, params: EnvParams) -> jax.Array:
+    def observed_agent_plane(self, state: jaxdc.dcg.env.EnvState, params: jaxdc.dcg.env.EnvParams) -> jax.Array:
         """:meth:`agent_plane` as the observation (and its history) shows it: ``"general"`` divides the energy by
         :data:`~jaxdc.core.energy.ENERGY_SCALE` (the opponent stays -1)."""
         plane = self.agent_plane(state, params)
         return plane if self.observation == "thesis" else jnp.where(plane > 0, plane / ENERGY_SCALE, plane)
 
-    def planes(self, state: EnvState, params: EnvParams) -> jax.Array:
+    def planes(self, state: jaxdc.dcg.env.EnvState, params: jaxdc.dcg.env.EnvParams) -> jax.Array:
         """The current state ``s_t`` as two planes ``[N, N, 2]``: ``M^item``, ``M^agent``; ``"general"``: three,
         ``M^agent`` scaled, then the episode's maximum energy over the scale on every cell."""
         if self.observation == "thesis":
@@ -91,7 +91,7 @@ class CollectorObservation:
         return jnp.stack([state.items, self.observed_agent_plane(state, params),
                           jnp.full((n, n), budget, jnp.float32)], axis=-1)
 
-    def observe(self, state: EnvState, params: EnvParams) -> jax.Array:
+    def observe(self, state: jaxdc.dcg.env.EnvState, params: jaxdc.dcg.env.EnvParams) -> jax.Array:
         """``[N, N, 2 + k]`` (planes then history) with ``obs_history``, else ``[N, N, 2]`` (``"general"``: 3 state
         planes)."""
         planes = self.planes(state, params)

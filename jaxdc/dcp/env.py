@@ -126,7 +126,7 @@ class DCP(Environment[EnvState, EnvParams]):
         ``"general"`` (beyond the thesis): four planes ``[N, N, 4]``: items,
         the energy at the agent's cell, the episode's risk map and its
         maximum energy on every cell, both energies divided by
-        :data:`ENERGY_SCALE`; a network that sees them can play maps and
+        :data:`~jaxdc.core.energy.ENERGY_SCALE`; a network that sees them can play maps and
         budgets it was not trained on (docs/generalisation.md).
 
     With per-episode instances (``params.maps``, built by
@@ -221,8 +221,8 @@ class DCP(Environment[EnvState, EnvParams]):
 
     def observation_bounds(self, params: EnvParams) -> tuple[float, np.ndarray]:
         """Items in ``[0, total_reward]``; the energy plane in ``[0, observed_energy_bound(...)]`` (the budget, or
-        ``max_steps`` for an unlimited one); ``"general"``: both energy planes over :data:`ENERGY_SCALE`, the
-        risk plane in ``[0, 1]``."""
+        ``max_steps`` for an unlimited one); ``"general"``: both energy planes over
+        :data:`~jaxdc.core.energy.ENERGY_SCALE`, the risk plane in ``[0, 1]``."""
         high = np.zeros(self.observation_shape(params), np.float32)
         high[..., 0] = self.total_reward
         if params.energy_range is not None:
@@ -343,7 +343,8 @@ class DCP(Environment[EnvState, EnvParams]):
     def observe(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The two planes ``[N, N, 2]``: item rewards and the energy at the agent's cell (section 4.5.1; an
         unlimited budget shows as ``max_steps``, :func:`~jaxdc.core.energy.observed_energy`). ``"general"``:
-        then the episode's risk map and its maximum energy on every cell, energies over :data:`ENERGY_SCALE`."""
+        then the episode's risk map and its maximum energy on every cell, energies over
+        :data:`~jaxdc.core.energy.ENERGY_SCALE`."""
         n = self.grid_size
         here = (jnp.arange(n)[:, None] == state.pos[0]) & (jnp.arange(n)[None, :] == state.pos[1])
         agent = jnp.where(here, observed_energy(state.energy, params.max_steps), 0.0).astype(jnp.float32)
