@@ -17,13 +17,16 @@ import math
 import os
 import signal
 import tempfile
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Union
 
 
 def _write_temp(path: str, data: bytes | str) -> str:
     """Write ``data`` to a new temporary file beside ``path`` (with the mode ``open`` would give); its name."""
     folder = os.path.dirname(path) or "."
     os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.basename(path))
+    # the temporary name keeps the target's name (a long one shortened: the file system's limit applies to it too)
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.basename(path)[-(NAME_MAX - 32):])
     try:
         # mkstemp creates 0600; give the result the mode open() would (0666 minus the umask).
         os.fchmod(fd, 0o666 & ~_umask())
@@ -156,34 +159,123 @@ def atomic_write_set(files: dict) -> list[str]:
     return [path for _, path in temps]
 
 
-def check_output_path(path, what: str = "output") -> str:
-    """Refuse, before any work, a file path that cannot be written: its folder is a file or not writable.
+#: The inputs of a command, for the overwrite check: ``{flag: path, paths or None}`` (``None`` entries skipped).
+Inputs = Mapping[str, Union[str, "os.PathLike[str]", Sequence[Union[str, "os.PathLike[str]"]], None]]
 
-    Creates nothing. Returns the path. ``ValueError`` names the path and the reason.
-    """
-    path = os.fspath(path)
-    if os.path.isdir(path):
-        raise ValueError(f"{what} {path!r} is a folder, not a file")
-    _check_folder(os.path.dirname(os.path.abspath(path)), what, path)
-    return path
+#: The longest file name most file systems take (bytes), where ``pathconf`` cannot say.
+NAME_MAX = 255
 
 
-def check_output_folder(folder, what: str = "output folder") -> str:
-    """Refuse, before any work, a folder that cannot be created or written (a file in the way, no permission)."""
-    folder = os.fspath(folder)
-    if os.path.exists(folder) and not os.path.isdir(folder):
-        raise ValueError(f"{what} {folder!r} is a file, not a folder")
-    _check_folder(os.path.abspath(folder), what, folder)
-    return folder
+def _name_max(folder: str) -> int:
+    probe = _nearest_existing(folder)
+    try:
+        return int(os.pathconf(probe, "PC_NAME_MAX"))
+    except (OSError, ValueError, AttributeError):
+        return NAME_MAX
 
 
-def _check_folder(folder: str, what: str, given: str) -> None:
-    probe = folder
-    while not os.path.exists(probe):  # the nearest existing ancestor decides
+def _nearest_existing(path: str) -> str:
+    probe = path
+    while not os.path.lexists(probe):  # the nearest existing ancestor decides
         parent = os.path.dirname(probe)
         if parent == probe:
             break
         probe = parent
+    return probe
+
+
+def _check_shape(path: str, what: str) -> None:
+    """Refuse a path that no write can create: empty, a component longer than the file system's limit, a
+    dangling symbolic link on the way (``os.makedirs`` and ``open`` would fail only after the work)."""
+    if not path:
+        raise ValueError(f"{what} is empty; give a path")
+    if "\x00" in path:
+        raise ValueError(f"{what} {path!r} holds a NUL character")
+    absolute = os.path.abspath(path)
+    limit = _name_max(os.path.dirname(absolute))
+    for part in absolute.split(os.sep):
+        if len(os.fsencode(part)) > limit:
+            raise ValueError(f"{what} {path!r}: the name {part[:40]!r}... is {len(os.fsencode(part))} bytes long, "
+                             f"more than the file system's limit of {limit}")
+    probe = absolute
+    while True:
+        if os.path.islink(probe) and not os.path.exists(probe):
+            raise ValueError(f"{what} {path!r}: {probe!r} is a symbolic link to {os.readlink(probe)!r}, "
+                             "which does not exist")
+        parent = os.path.dirname(probe)
+        if parent == probe:
+            break
+        probe = parent
+
+
+def _paths_of(given) -> list[str]:
+    if given is None:
+        return []
+    if isinstance(given, (str, os.PathLike)):
+        return [os.fspath(given)]
+    return [os.fspath(p) for p in given if p is not None]
+
+
+def _same_file(a: str, b: str) -> bool:
+    """Whether ``a`` and ``b`` name one file: the same resolved path (symbolic links followed) or, when both
+    exist, the same inode (hard links)."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _inside(path: str, folder: str) -> bool:
+    real, top = os.path.realpath(path), os.path.realpath(folder)
+    return real != top and real.startswith(top.rstrip(os.sep) + os.sep)
+
+
+def check_not_input(path, what: str, inputs: Inputs | None) -> None:
+    """Refuse an output ``path`` that resolves to one of ``inputs`` (symbolic and hard links included) or lies
+    inside an input folder: the command would overwrite what it reads. ``ValueError`` naming both flags."""
+    path = os.fspath(path)
+    for flag, given in (inputs or {}).items():
+        for source in _paths_of(given):
+            if _same_file(path, source) or (os.path.isdir(source) and _inside(path, source)):
+                raise ValueError(f"{what} {path!r} would overwrite the input {flag} {source!r}; "
+                                 "write the output somewhere else")
+
+
+def check_output_path(path, what: str = "output", inputs: Inputs | None = None) -> str:
+    """Refuse, before any work, a file path that cannot be written or must not be: a folder at the name, its
+    folder a file or not writable, a dangling symbolic link on the way, a name longer than the file system
+    takes, or one of the command's ``inputs`` (:func:`check_not_input`).
+
+    Creates nothing. Returns the path. ``ValueError`` names the path and the reason.
+    """
+    path = os.fspath(path)
+    _check_shape(path, what)
+    if os.path.isdir(path):
+        raise ValueError(f"{what} {path!r} is a folder, not a file")
+    _check_folder(os.path.dirname(os.path.abspath(path)), what, path)
+    check_not_input(path, what, inputs)
+    return path
+
+
+def check_output_folder(folder, what: str = "output folder", files: Iterable[str] = (),
+                        inputs: Inputs | None = None) -> str:
+    """Refuse, before any work, a folder that cannot be created or written (a file in the way, no permission, a
+    dangling symbolic link, a name too long); ``files``, the names the command writes into it, are checked
+    as :func:`check_output_path` does (a folder at the name, one of the command's ``inputs``)."""
+    folder = os.fspath(folder)
+    _check_shape(folder, what)
+    if os.path.exists(folder) and not os.path.isdir(folder):
+        raise ValueError(f"{what} {folder!r} is a file, not a folder")
+    _check_folder(os.path.abspath(folder), what, folder)
+    for name in files:
+        check_output_path(os.path.join(folder, name), f"{what} file", inputs)
+    return folder
+
+
+def _check_folder(folder: str, what: str, given: str) -> None:
+    probe = _nearest_existing(folder)
     if not os.path.isdir(probe):
         raise ValueError(f"{what} {given!r} cannot be created: {probe!r} is a file")
     if not os.access(probe, os.W_OK | os.X_OK):

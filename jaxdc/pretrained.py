@@ -29,9 +29,14 @@ import jax.numpy as jnp
 import numpy as np
 from flax import serialization
 
+from jaxdc.core.tree_check import non_finite, slash_path
+from jaxdc.core.validate import INT32_MAX, check_choice, check_float, check_int
 from jaxdc.io import atomic_write_set, json_text, read_json
 from jaxdc.metadata import FORMAT, check_values, upgrade
 
+#: ``check(name, value)``: the check of one metadata entry, strict about JSON types (a bool must be ``true`` or
+#: ``false``, an int an integer); it returns the value or raises ``TypeError``/``ValueError`` naming ``name``.
+SettingCheck = Callable[[str, Any], Any]
 #: A file or folder path.
 PathLike = Union[str, "os.PathLike[str]"]
 #: ``restore_target(net_name, metadata, source)``: an initial training state shaped like a run's checkpoint.
@@ -73,6 +78,76 @@ class Learned:
         raise NotImplementedError
 
 
+def json_bool(name: str, value: Any) -> bool:
+    """A metadata flag: JSON ``true`` or ``false`` only (``"no"`` or ``0`` would read as a truth value)."""
+    if not isinstance(value, bool):
+        raise TypeError(f"{name} must be true or false (a JSON bool), got {value!r}")
+    return value
+
+
+def json_int(low: int, high: int | None = INT32_MAX) -> SettingCheck:
+    """A metadata integer in ``[low, high]`` (``high=None``: unbounded); a float or a bool is refused."""
+    return lambda name, value: check_int(name, value, low, high)
+
+
+def json_number(low: float | None = None, high: float | None = None, low_open: bool = False,
+                allow_inf: bool = False) -> SettingCheck:
+    """A metadata number in range (:func:`jaxdc.core.validate.check_float`); with ``allow_inf`` the string
+    ``"inf"`` (how jaxdc writes an unlimited budget) too."""
+    def check(name: str, value: Any) -> float:
+        if allow_inf and value == "inf":
+            return float("inf")
+        return check_float(name, value, low, high, low_open=low_open, allow_inf=allow_inf)
+    return check
+
+
+def json_choice(choices: Collection[str]) -> SettingCheck:
+    """A metadata name, one of ``choices``."""
+    def check(name: str, value: Any) -> str:
+        if not isinstance(value, str):
+            raise TypeError(f"{name} must be one of {tuple(choices)}, got {value!r}")
+        return check_choice(name, value, tuple(choices))
+    return check
+
+
+def json_list(item: SettingCheck, length: int | None = None) -> SettingCheck:
+    """A metadata list (of ``length`` items when given), each checked by ``item``."""
+    def check(name: str, value: Any) -> list:
+        if not isinstance(value, list) or (length is not None and len(value) != length):
+            raise TypeError(f"{name} must be a list of {length or 'some'} values, got {value!r}")
+        return [item(f"{name}[{i}]", v) for i, v in enumerate(value)]
+    return check
+
+
+def json_object(schema: dict[str, SettingCheck]) -> SettingCheck:
+    """A metadata object whose entries of ``schema`` are checked (others are left alone)."""
+    def check(name: str, value: Any) -> dict:
+        if not isinstance(value, dict):
+            raise TypeError(f"{name} must be a JSON object, got {value!r}")
+        for key, item in schema.items():
+            if key in value:
+                item(f"{name}.{key}", value[key])
+        return value
+    return check
+
+
+def optional(check: SettingCheck) -> SettingCheck:
+    """``check``, or ``null`` (an unset optional setting)."""
+    return lambda name, value: None if value is None else check(name, value)
+
+
+def check_settings(meta: dict, where: str, schema: dict[str, SettingCheck]) -> dict:
+    """``meta`` if every entry of ``schema`` present in it passes its check; else a ``ValueError`` that starts
+    with ``where`` (the file) and the key: ``"<file>: key 'energy': ..."``."""
+    for key, check in schema.items():
+        if key in meta:
+            try:
+                check(key, meta[key])
+            except (TypeError, ValueError) as e:
+                raise ValueError(f"{where}: key {key!r}: {e}") from None
+    return meta
+
+
 def _paths(path: PathLike) -> tuple[str, str]:
     path = os.fspath(path)
     stem = path[: -len(".msgpack")] if path.endswith(".msgpack") else path
@@ -82,14 +157,8 @@ def _paths(path: PathLike) -> tuple[str, str]:
 def non_finite_leaf(params: Any) -> str | None:
     """The ``/``-joined path of the first parameter array holding a NaN or an infinity, or ``None``
     (traced leaves, inside a jit, are skipped: they are checked where their values are known)."""
-    flat = jax.tree_util.tree_flatten_with_path(params)[0]
-    for path, leaf in flat:
-        if isinstance(leaf, jax.core.Tracer):
-            continue
-        a = np.asarray(leaf)
-        if np.issubdtype(a.dtype, np.inexact) and not np.all(np.isfinite(a)):
-            return "/" + "/".join(str(getattr(k, "key", getattr(k, "idx", k))) for k in path)
-    return None
+    bad = non_finite(params, key=slash_path)
+    return bad[0][0] if bad else None
 
 
 def save(path: PathLike, params: Any, metadata: dict) -> str:
@@ -206,6 +275,19 @@ def resolve(path: PathLike, problem: str) -> str:
     return path
 
 
+def read_paths(path: PathLike, problem: str) -> list[str]:
+    """The files and folders :func:`load_trained` reads for ``path``: a parameter file and its sidecar, or a run
+    folder's ``checkpoints/`` and ``config.json`` (for the commands' check that no output overwrites an input)."""
+    try:
+        path = resolve(path, problem)
+    except ValueError:
+        path = os.fspath(path)
+    if os.path.isdir(path):
+        ckpt = os.path.join(path, "checkpoints")
+        return [ckpt, os.path.join(path, "config.json")] if os.path.isdir(ckpt) else [path]
+    return list(_paths(path))
+
+
 def check_finite(params: Any, source: str) -> None:
     """``ValueError`` naming ``source`` and the first parameter that holds NaN or infinity (a damaged file or a
     diverged run); every loader of trained parameters calls it."""
@@ -228,15 +310,17 @@ def _naming_source(restore_target: RestoreTarget, source: str) -> RestoreTarget:
 
 def load_trained(path: PathLike, problem: str, nets: Collection[str], restore_target: RestoreTarget,
                  net: str | None = None, check_meta: Callable[[dict, str], None] | None = None,
-                 run_seed: int | None = None) -> tuple[str, Any, dict, str]:
+                 run_seed: int | None = None,
+                 check_setting: Callable[[dict, str], None] | None = None) -> tuple[str, Any, dict, str]:
     """``(net_name, params, metadata, source)`` of a trained network, from a file or a training run.
 
     ``path`` is a parameter file of :func:`save` (``.msgpack``, suffix
     optional), a shipped network's name (:func:`resolve`) or a run folder of ``python -m train.<problem>`` (its
     ``checkpoints/`` subfolder, or an orbax checkpoint folder itself; the latest
     step is read). The stored ``problem`` must be ``problem``, the stored
-    network one of ``nets`` and, if given, ``net``; ``check_meta(meta, source)``
-    may refuse more (e.g. another grid size). A run's parameters are restored
+    network one of ``nets`` and, if given, ``net``; ``check_setting(meta, where)`` checks the stored setting
+    (``where``: the sidecar file, or the run's checkpoint metadata, for its messages) before anything is built
+    from it, and ``check_meta(meta, source)`` may refuse more (e.g. another grid size). A run's parameters are restored
     into ``restore_target(name, meta, source)``, an initial training state of the
     same structure; its metadata gets ``updates``, the restored checkpoint's
     update count. A run of several seeds (``--seeds 0,1,2``: every array has a
@@ -257,13 +341,15 @@ def load_trained(path: PathLike, problem: str, nets: Collection[str], restore_ta
             meta = upgrade(dict(checkpoint.read_metadata(ckpt), problem=problem))
         except ValueError as e:
             raise ValueError(f"{source}: {e}") from None
-        check_metadata_values(meta, f"{source} (checkpoint metadata)")
+        where = f"{source} (checkpoint metadata)"
+        check_metadata_values(meta, where)
     else:
         blob, _ = _paths(path)
         if not os.path.isfile(blob):
             raise ValueError(f"checkpoint {path!r} not found: expected a train.{problem} run folder or a .msgpack "
                              "parameter file (jaxdc.pretrained)")
         source = f"parameter file {blob}"
+        where = _paths(blob)[1]
         meta = read_metadata(blob)
         if meta.get("problem") != problem:
             raise ValueError(f"{source} is for problem {meta.get('problem')!r}, not {problem!r}")
@@ -272,6 +358,8 @@ def load_trained(path: PathLike, problem: str, nets: Collection[str], restore_ta
         raise ValueError(f"{source}: metadata names net {name!r}, not one of the {problem} networks {tuple(nets)}")
     if net is not None and name != net:
         raise ValueError(f"{source} holds a {name!r} network, not {net!r}")
+    if check_setting is not None:
+        check_setting(meta, where)
     if check_meta is not None:
         check_meta(meta, source)
     restore_target = _naming_source(restore_target, source)

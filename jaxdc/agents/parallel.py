@@ -17,9 +17,15 @@ devices of a one-axis :class:`jax.sharding.Mesh`:
 The program is the same global program on one CPU, several GPUs or a TPU
 slice (GSPMD partitions it); random numbers are drawn for the global batch
 (``jax_threefry_partitionable``), so a run's numbers do not depend on the
-device count, up to the order of float reductions. On several hosts, call
-``jax.distributed.initialize()`` first; :func:`data_mesh` then sees every
-host's devices.
+device count, up to the order of float reductions.
+
+Several processes (hosts) run the same program over one mesh of all their
+devices once ``jax.distributed.initialize`` has joined them
+(:mod:`jaxdc.training.distributed`): :func:`data_mesh` then spans every
+process's devices, each process steps the environments of its own shard, and
+:func:`put` / :func:`host` move a state that every process holds whole onto
+the global mesh and back (the reverse is a collective every process takes part
+in).
 
 ``num_seeds`` stacks that many independent runs along a new leading axis and
 ``vmap`` s the trainer over it (PureJaxRL style): run ``i`` equals a single run
@@ -46,13 +52,38 @@ BATCHED_FIELDS = ("env_state", "obs")
 
 
 def data_mesh(num_devices: int | None = None) -> Mesh:
-    """A one-axis mesh (``"data"``) over the first ``num_devices`` devices (all of them if ``None``)."""
+    """A one-axis mesh (``"data"``) over the first ``num_devices`` devices (all of them if ``None``).
+
+    With several processes the mesh spans all devices of all processes, so ``num_devices`` must be ``None`` or
+    their number.
+    """
     devices = jax.devices()
     n = len(devices) if num_devices is None else num_devices
     if not is_int(n, numpy=False) or not 1 <= n <= len(devices):
         raise ValueError(f"num_devices must be an int in [1, {len(devices)}] (the devices JAX sees: "
                          f"{len(devices)} {devices[0].platform}), got {num_devices!r}")
+    if jax.process_count() > 1 and n != len(devices):
+        raise ValueError(f"num_devices must be {len(devices)} (all devices of the {jax.process_count()} processes) "
+                         f"or None when several processes train together, got {num_devices!r}")
     return Mesh(np.asarray(devices[:n]), (DATA_AXIS,))
+
+
+def put(tree: Any, shardings: Any) -> Any:
+    """``tree`` placed as ``shardings`` say; with several processes each must pass the same whole ``tree`` (as
+    the same key gives every process the same initial state), and each keeps only its devices' shards."""
+    if jax.process_count() > 1:
+        tree = jax.device_get(tree)  # host values: each process puts its own shards of them
+    return jax.device_put(tree, shardings)
+
+
+def host(tree: Any) -> Any:
+    """``tree`` whole on every process: with several processes a collective that every process must call
+    (``process_allgather``), giving NumPy arrays; with one process ``tree`` itself."""
+    if jax.process_count() == 1:
+        return tree
+    from jax.experimental import multihost_utils
+
+    return multihost_utils.process_allgather(tree, tiled=True)
 
 
 def state_shardings(state: Any, mesh: Mesh, seed_axis: bool = False) -> Any:
@@ -102,7 +133,7 @@ def parallelize(trainer: Trainer, mesh: Mesh | None = None, num_seeds: int | Non
         return vm(trainer.train)(keys)
 
     def init(key):  # not jitted, as the trainer's own init: a jitted one would compile the heuristics once more
-        return jax.device_put(vm(trainer.init)(key), shardings)
+        return put(vm(trainer.init)(key), shardings)
 
     return Trainer(
         init=init,
@@ -114,4 +145,4 @@ def parallelize(trainer: Trainer, mesh: Mesh | None = None, num_seeds: int | Non
 
 def place(state: Any, mesh: Mesh, seed_axis: bool = False) -> Any:
     """Put a (restored, host) training state on ``mesh`` as :func:`state_shardings` says."""
-    return jax.device_put(state, state_shardings(state, mesh, seed_axis))
+    return put(state, state_shardings(state, mesh, seed_axis))

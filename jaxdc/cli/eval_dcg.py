@@ -10,6 +10,7 @@ Examples::
     python -m eval.dcg figure all --episodes 2000
     python -m eval.dcg render --net omn_conn --strategy patrol --seed 3 --greedy --reward-area 2
     python -m eval.dcg optimum --episodes 2000                      # the full-information bound, 10 items
+    python -m eval.dcg energies --checkpoint NET --energies 8 10 12 15 20 25   # one collector per energy
 
 An evaluation writes its JSON atomically to ``--out`` (default
 ``results/dcg``); ``--json`` prints exactly one JSON object. Every JSON is
@@ -22,7 +23,11 @@ and reused for the same parameter file and settings; ``--no-cache``
 re-runs them); ``render`` writes a PNG strip (Figs.
 5.13-5.15) and a GIF; ``optimum`` estimates the full-information bound of the
 standard game over sampled games (``jaxdc.dcg.exact.many_items``) and writes
-``results/dcg/optimum_<settings>.json``.
+``results/dcg/optimum_<settings>.json``; ``energies`` plays one collector (e.g.
+one trained with ``train.dcg --energy-range``) at each maximum energy beside
+that bound and the shipped per-energy collectors of Figs. 5.8-5.9
+(``jaxdc.dcg.analysis.energies``) and writes
+``results/dcg/energies_<net>.{json,md}``.
 
 Every flag value is checked before any work (numbers finite and in range,
 seeds in ``0 .. 2**32 - 1``, output folders creatable and writable); a bad one
@@ -40,6 +45,8 @@ import sys
 
 import jax
 
+from jaxdc import pretrained
+from jaxdc.cli import eval_dcg_energies as energies
 from jaxdc.cli.args import integer, positive_float, positive_int, seed
 from jaxdc.cli.eval_dcg_settings import EvaluateSettings, FigureSettings, OptimumSettings, RenderSettings
 from jaxdc.cli.runner import run
@@ -64,7 +71,14 @@ from jaxdc.dcg.env import CAPTURES, DCG, OPPONENT_STARTS, OUTCOMES, PATROL_TARGE
 from jaxdc.dcg.exact.machine import MAX_GRID_SIZE
 from jaxdc.dcg.exact.many_items import sampled_bound
 from jaxdc.dcg.opponents import CHASE_TIES, DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
-from jaxdc.io import atomic_write_json, atomic_write_set, check_output_folder, enable_compilation_cache, json_text
+from jaxdc.io import (
+    atomic_write_json,
+    atomic_write_set,
+    check_output_folder,
+    check_output_path,
+    enable_compilation_cache,
+    json_text,
+)
 from jaxdc.provenance import provenance
 from jaxdc.viewer.bars import bar_chart_png, strategy_chart_png
 from jaxdc.viewer.media import animation_bytes, check_animation, strip_png
@@ -73,7 +87,7 @@ PROG = "python -m eval.dcg"
 RESULTS = os.path.join("results", "dcg")
 IMAGES = os.path.join("docs", "img")
 #: The subcommands; a command line that does not start with one of them is an ``evaluate``.
-SUBCOMMANDS = ("evaluate", "figure", "render", "optimum")
+SUBCOMMANDS = ("evaluate", "figure", "render", "optimum", "energies")
 DEFAULT_SUBCOMMAND = "evaluate"
 #: Most frames per row of a ``render`` strip.
 MAX_COLS = 1000
@@ -222,6 +236,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
     p.add_argument("--out", default=RESULTS, help="folder for the result JSON")
     p.set_defaults(run=_optimum, error=p.error)
+
+    energies.add_parser(sub, PROG, _add_network, RESULTS)
     return parser
 
 
@@ -230,13 +246,39 @@ def _load(checkpoint, net):
 
 
 # -- the subcommands ----------------------------------------------------------------------------
-def _check_folders(args, *flags):
-    """Refuse, before any work, an output folder (``--out`` ...) that cannot be created or written."""
+def _check_folders(args, *flags, files: dict | None = None, inputs: dict | None = None):
+    """Refuse, before any work, an output folder (``--out`` ...) that cannot be created or written, or whose
+    ``files[flag]`` (the names written into it) would overwrite one of the command's ``inputs``."""
     for flag in flags:
         try:
-            check_output_folder(getattr(args, flag.lstrip("-").replace("-", "_")), flag)
+            check_output_folder(getattr(args, flag.lstrip("-").replace("-", "_")), flag,
+                                files=(files or {}).get(flag, ()), inputs=inputs)
         except ValueError as e:
             args.error(str(e))
+
+
+def _checkpoint_inputs(args) -> dict:
+    """The files ``--checkpoint`` reads (for the check that no output overwrites them)."""
+    return {"--checkpoint": pretrained.read_paths(args.checkpoint, "dcg") if args.checkpoint else None}
+
+
+def _nets_dir_inputs(nets_dir: str | None) -> dict:
+    """The parameter files of ``--nets-dir`` (each ``.msgpack`` and its ``.json``)."""
+    if not nets_dir or not os.path.isdir(nets_dir):
+        return {}
+    return {"--nets-dir": [os.path.join(nets_dir, f) for f in sorted(os.listdir(nets_dir))
+                           if f.endswith((".msgpack", ".json"))]}
+
+
+def _figure_files(names) -> dict:
+    """``{flag: names}`` of the files ``figure`` writes for the experiments ``names``."""
+    out, img = [], []
+    for name in names:
+        exp = EXPERIMENTS[name]
+        out += [f"figure_{name}.{ext}" for ext in ("json", "csv", "md")]
+        img += [f"dcg_fig{no.replace('.', '_')}.png" for no in exp.figures]
+        img += [f"dcg_{name}_per_strategy.png"] if exp.per_strategy_chart else []
+    return {"--out": out, "--img": img}
 
 
 def _evaluate(args, command) -> int:
@@ -254,7 +296,11 @@ def _evaluate(args, command) -> int:
         args.error(str(e))
     r["command"] = command
     line = json_text(r, indent=None)  # strict: refused before anything is written
-    path = atomic_write_json(os.path.join(s.out, result_name(r)), {**r, "provenance": provenance()})
+    try:  # the name depends on the setting played, so it is known only now (still before anything is written)
+        target = check_output_path(os.path.join(s.out, result_name(r)), "--out file", _checkpoint_inputs(args))
+    except ValueError as e:
+        args.error(str(e))
+    path = atomic_write_json(target, {**r, "provenance": provenance()})
     if s.json:
         print(line)
     else:
@@ -264,8 +310,9 @@ def _evaluate(args, command) -> int:
 
 
 def _figure(args, command) -> int:
-    _check_folders(args, "--out", "--img", "--cache")
     s = FigureSettings.from_args(args)
+    _check_folders(args, "--out", "--img", "--cache", files=_figure_files(s.experiments),
+                   inputs=_nets_dir_inputs(s.nets_dir))
     enable_compilation_cache()
     try:
         pool, folder = network_pool(s.nets_dir)
@@ -318,15 +365,15 @@ def _render(args, command) -> int:
     enable_compilation_cache()
     try:
         learned = _load(s.checkpoint, s.net)
+        for path in _render_paths(s, learned.net_name):
+            check_output_path(path, "--out file", _checkpoint_inputs(args))
         env, params = learned.game(energy=s.energy, strategies=(s.strategy,), reward_area=s.reward_area,
                                    max_steps=s.max_steps)
         states = play_episode(env, params, learned.policy(s.greedy), jax.random.PRNGKey(s.seed), s.max_steps)
     except (TypeError, ValueError) as e:
         args.error(str(e))
     last = states[-1]
-    stem = (f"dcg_{learned.net_name}_{s.strategy}_s{s.seed}" + ("_greedy" if s.greedy else "")
-            + (f"_area{s.reward_area}" if s.reward_area else ""))
-    strip, gif = os.path.join(s.out, stem + ".png"), os.path.join(s.out, stem + ".gif")
+    strip, gif = _render_paths(s, learned.net_name)
     files = {strip: strip_png(env, params, states, cols=s.cols),
              gif: animation_bytes(env, params, states, ".gif", fps=s.fps)}
     atomic_write_set(files)  # the strip and the animation land together
@@ -334,6 +381,13 @@ def _render(args, command) -> int:
           f"reward {float(last.ep_reward):g}, outcome {OUTCOMES[int(last.outcome)]}")
     print(f"written {strip} and {gif}")
     return 0
+
+
+def _render_paths(s: RenderSettings, net_name: str) -> tuple[str, str]:
+    """The strip (PNG) and the animation (GIF) a render writes."""
+    stem = (f"dcg_{net_name}_{s.strategy}_s{s.seed}" + ("_greedy" if s.greedy else "")
+            + (f"_area{s.reward_area}" if s.reward_area else ""))
+    return os.path.join(s.out, stem + ".png"), os.path.join(s.out, stem + ".gif")
 
 
 def _optimum(args, command) -> int:

@@ -53,6 +53,7 @@ import dataclasses
 import os
 import sys
 
+from jaxdc import pretrained
 from jaxdc.cli import eval_dcp_generalisation as generalisation
 from jaxdc.cli.args import integer, positive_float, positive_int, real, seed, unit_interval
 from jaxdc.cli.runner import command_line, with_subcommand
@@ -339,7 +340,10 @@ def main(argv=None) -> int:
             except (TypeError, ValueError) as e:
                 raise ValueError(f"--energy {args.energy[0]:g} {args.energy[1]:g}: {e}") from None
         if spec:
-            check_output_folder(args.out or DEFAULT_OUT, "--out")
+            check_output_folder(args.out or DEFAULT_OUT, "--out",
+                                files=(f"table_{spec.name}.json", f"table_{spec.name}.md"),
+                                inputs={"--checkpoint": args.checkpoint and pretrained.read_paths(args.checkpoint,
+                                                                                                  "dcp")})
         check_learned_flags(args, spec)
         enable_compilation_cache()
         learned = resolve_learned(args, spec)

@@ -35,6 +35,8 @@ from jaxdc.provenance import provenance
 
 #: Where the grid's files land unless ``--out`` is given.
 DEFAULT_OUT = os.path.join("results", "dcp", "generalisation")
+#: The files the grid writes into ``--out``.
+OUTPUT_FILES = ("generalisation.json", "generalisation.md", "generalisation_ratio.png", "generalisation_one_item.png")
 
 
 def add_parser(sub, prog: str) -> argparse.ArgumentParser:
@@ -93,7 +95,8 @@ def specialist_finder(total_reward: int):
 def main(args: argparse.Namespace, prog: str, argv=None) -> int:
     """Run the grid of the parsed ``args``; exit status 0."""
     pairs = budgets(args.budgets)
-    out = check_output_folder(args.out, "--out")
+    out = check_output_folder(args.out, "--out", files=OUTPUT_FILES,
+                              inputs={"--checkpoint": pretrained.read_paths(args.checkpoint, "dcp")})
     learned = learned_lib.load(args.checkpoint, net="enn")
     grid = gen.settings(learned.metadata, args.maps_per_source, pairs, learned.metadata.get("grid_size", 8),
                         args.generator)

@@ -216,9 +216,19 @@ def check_settings(p: argparse.ArgumentParser, s) -> None:
         needed = 4 * 4 * e.graphs * (e.nodes + 1) ** 2 + 8 * 4 * instances * (e.nodes + 1)
         check_fits(needed, f"figure {s.figure} with --graphs {e.graphs} --nodes {e.nodes}",
                    "--graphs or --nodes")
-    check_output_folder(s.out, "--out")
-    if isinstance(s, PlanSettings) and s.draw:
-        check_output_path(s.draw, "--draw")
+    if isinstance(s, PlanSettings):
+        inputs = {"--graph": s.graph}
+        check_output_folder(s.out, "--out", files=(os.path.basename(plan_path(s)),), inputs=inputs)
+        if s.draw:
+            check_output_path(s.draw, "--draw", inputs)
+    else:
+        check_output_folder(s.out, "--out")
+
+
+def plan_path(s: PlanSettings) -> str:
+    """The plan's JSON file: ``<out>/plan_<graph name>_<builder>_<clustering>.json``."""
+    name = os.path.splitext(os.path.basename(s.graph))[0]
+    return os.path.join(s.out, f"plan_{name}_{s.builder}_{s.clustering}.json")
 
 
 # ----------------------------------------------------------------------------- plan
@@ -242,10 +252,8 @@ def run_plan(s: PlanSettings) -> int:
     (reward, tours), = solve_instances(s.builder, s.clustering, D, beta, psi, [0], [graph.alpha])
     result = {"expected_reward": float(reward), "robots": len(tours), "tours": tours}
     text = json_text({**result, "provenance": provenance()}, indent=None)  # the file records where it came from
-    name = os.path.splitext(os.path.basename(s.graph))[0]
-    plan_path = os.path.join(s.out, f"plan_{name}_{s.builder}_{s.clustering}.json")
     if not s.draw:
-        atomic_write(plan_path, text)
+        atomic_write(plan_path(s), text)
     if s.json:
         print(json_text(result, indent=None))
     else:
@@ -259,7 +267,7 @@ def run_plan(s: PlanSettings) -> int:
         buf = io.BytesIO()
         draw_plan(graph, tours, title=f"{s.builder.upper()} + {s.clustering.upper()}: {len(tours)} robot(s), "
                                       f"expected reward {reward:.3f}").savefig(buf, format="png", dpi=100)
-        atomic_write_set({plan_path: text, s.draw: buf.getvalue()})
+        atomic_write_set({plan_path(s): text, s.draw: buf.getvalue()})
         if not s.json:
             print(f"tours drawn to {s.draw}")
     return 0

@@ -76,7 +76,7 @@ def settle(args) -> ReportSettings:
     dcg_notes = _notes(args.dcg_notes, DEFAULT_DCG_NOTES, "--dcg-notes")
     if os.path.exists(args.results) and not os.path.isdir(args.results):
         raise ValueError(f"--results {args.results!r} is a file, not a folder")
-    check_output_path(args.out, "--out")
+    check_output_path(args.out, "--out", {"--notes": notes, "--dcg-notes": dcg_notes, "--results": args.results})
     return ReportSettings(results=args.results, notes=notes, dcg_notes=dcg_notes, out=args.out)
 
 

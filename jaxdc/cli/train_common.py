@@ -20,6 +20,7 @@ from typing import Any
 
 from jaxdc.agents.a2c import A2CConfig
 from jaxdc.cli.args import nonnegative_float, positive_float, positive_int, seed, seed_list, unit_interval
+from jaxdc.cli.cluster import add_cluster_arguments, cluster
 from jaxdc.core.energy import MAX_FINITE_ENERGY
 from jaxdc.io import check_output_folder
 from jaxdc.training import presets
@@ -71,12 +72,15 @@ def add_a2c_arguments(p: argparse.ArgumentParser, eval_every: int = 100_000, eva
     p.add_argument("--layout", choices=LAYOUTS, default="loop",
                    help="loop: one jitted update per Python iteration (faster on CPU); scan: updates in lax.scan")
     p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
+    p.add_argument("--resume-step", type=positive_int("--resume-step"), default=None, metavar="STEP",
+                   help="with --resume: continue from checkpoint STEP instead (the later checkpoints are deleted)")
     p.add_argument("--eval-every", type=positive_int("--eval-every"), default=eval_every,
                    help="environment steps between evaluations and checkpoints")
     p.add_argument("--eval-episodes", type=positive_int("--eval-episodes"), default=eval_episodes)
     p.add_argument("--greedy-eval", action="store_true", help="evaluate the argmax policy instead of sampling")
     p.add_argument("--keep", type=positive_int("--keep"), default=3, help="checkpoints to keep")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_cluster_arguments(p)  # several processes: --coordinator --num-processes --process-id, --auto-cluster
 
 
 def add_config_arguments(p: argparse.ArgumentParser, problem: str) -> None:
@@ -182,7 +186,7 @@ def config_defaults(p: argparse.ArgumentParser, value: str, problem: str, from_m
                              f"python -m train.{preset.problem} --config {value}")
         set_field_defaults(p, preset.fields().items(), f"--config {value}")
         return
-    path = os.path.join(value, "config.json") if os.path.isdir(value) else value
+    path = config_file(value)
     if not os.path.isfile(path):
         raise ValueError(f"--config {value!r} is neither a named configuration ({', '.join(presets.names(problem))})"
                          " nor a run's config.json")
@@ -194,6 +198,14 @@ def config_defaults(p: argparse.ArgumentParser, value: str, problem: str, from_m
     settings, seeds = from_metadata(meta, where)
     no_flag = {f.name: f.default for f in dataclasses.fields(settings.config)}
     set_field_defaults(p, _run_fields(settings, seeds, problem), where, no_flag)
+
+
+def config_file(value: str | None) -> str | None:
+    """The file ``--config value`` reads: ``None`` for no ``--config`` or a named configuration, a folder's
+    ``config.json``, else ``value``."""
+    if value is None or value in presets.EVERY:
+        return None
+    return os.path.join(value, "config.json") if os.path.isdir(value) else value
 
 
 def parse_with_config(p: argparse.ArgumentParser, argv: list[str] | None, problem: str,
@@ -210,7 +222,9 @@ def parse_with_config(p: argparse.ArgumentParser, argv: list[str] | None, proble
             config_defaults(p, value, problem, from_metadata)
     except ValueError as e:
         p.error(str(e))
-    return p.parse_args(argv)
+    args = p.parse_args(argv)
+    args.config = value  # --config is read before the parse; its file is an input (no output may overwrite it)
+    return args
 
 
 def a2c_settings(args: argparse.Namespace, fields: Iterable[str] = A2C_FLAGS) -> dict[str, Any]:
@@ -226,6 +240,7 @@ def learner_options_set(args: argparse.Namespace) -> list[str]:
 def run_control(args: argparse.Namespace, out: str) -> RunControl:
     """The :class:`~jaxdc.training.loop.RunControl` of the parsed run-control flags, into run folder ``out``."""
     return RunControl(out=out, seeds=tuple(args.seeds or [args.seed]), devices=args.devices, resume=args.resume,
+                      resume_step=args.resume_step,
                       eval_every=args.eval_every, keep=args.keep, layout=args.layout, progress=not args.no_progress,
                       tensorboard=bool(getattr(args, "tensorboard", False)))
 
@@ -256,9 +271,17 @@ def training_energy(name: str) -> Callable[[str], float]:
     return parse
 
 
-def check_outputs(out: str, tensorboard: bool = False) -> None:
-    """Refuse, before any work, a run folder (and its ``tb/``) that cannot be created or written."""
-    check_output_folder(out, "--out")
+def run_outputs(out: str) -> list[str]:
+    """The files and folders of run folder ``out`` that a run writes and a resume reads."""
+    return [os.path.join(out, name) for name in ("config.json", "metrics.csv", "checkpoints")]
+
+
+def check_outputs(out: str, tensorboard: bool = False, config: str | None = None, resume: bool = False) -> None:
+    """Refuse, before any work, a run folder (and its ``tb/``) that cannot be created or written, or whose
+    ``config.json`` (written by a fresh run) or ``metrics.csv`` is the ``--config`` file ``config``."""
+    inputs = {"--config": config_file(config)}
+    check_output_folder(out, "--out", files=("metrics.csv",) if resume else ("config.json", "metrics.csv"),
+                        inputs=inputs)
     if tensorboard:
         check_output_folder(os.path.join(out, "tb"), "--tensorboard folder")
 
@@ -276,6 +299,7 @@ def train_from_command_line(parser: argparse.ArgumentParser, argv: list[str] | N
     train it: ``(args, run, result)``, or ``None`` after ``--list-configs``. A bad value or combination is a usage
     error (exit 2) naming the flag."""
     from jaxdc.io import enable_compilation_cache
+    from jaxdc.training import distributed
     from jaxdc.training.fields import SettingError
 
     args = parse_with_config(parser, argv, problem, from_metadata)
@@ -283,9 +307,10 @@ def train_from_command_line(parser: argparse.ArgumentParser, argv: list[str] | N
         return None
     try:
         settings, control = settle(args)
-        check_outputs(control.out, control.tensorboard)
+        check_outputs(control.out, control.tensorboard, getattr(args, "config", None), control.resume)
         if check_more is not None:
             check_more(args)
+        distributed.initialize(cluster(args))  # before any JAX computation
         enable_compilation_cache()
         run = make_run(settings, control)
         result = run.train()

@@ -27,6 +27,10 @@ apply to it. ``--omn-lr`` (an option, not in the thesis) gives OMN's
 parameters their own initial learning rate (``A2CConfig.aux_lr``).
 ``--reward-area S`` (an option, not in the thesis) trains on the one-item
 game of section 5.5.5 instead of the standard one (docs/dcg.md).
+``--energy-range LOW HIGH`` (beyond the thesis) draws each episode's maximum
+energy among the integers of the range, and ``--observation general`` shows
+the collector its budget (docs/generalisation.md): one network for every
+maximum energy.
 
 The learner options of ``train.dcp`` (``--gae-lambda``, ``--clip-eps``,
 ``--epochs``, ``--minibatches``, ``--normalize-advantages``,
@@ -51,15 +55,20 @@ from jaxdc.cli.train_common import (
     a2c_settings,
     add_a2c_arguments,
     add_config_arguments,
+    config_file,
     fmt,
     run_control,
+    run_outputs,
     seed_tag,
     train_from_command_line,
     training_energy,
 )
+from jaxdc.core.energy import ENERGY_SCALE
+from jaxdc.dcg.env import OBSERVATIONS
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.io import check_output_path
 from jaxdc.training.dcg import NETS, DCGRun, DCGSettings, settings_from_metadata
+from jaxdc.training.distributed import is_primary
 
 #: EMNN's default weight of Eq. 5.1 (section 5.5.2).
 ALPHA = 0.001
@@ -93,6 +102,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ship", nargs="?", const="", default=None, metavar="PATH",
                    help="after training, write the final parameters with jaxdc.pretrained.save "
                         "(default jaxdc/assets/dcg/NET.msgpack)")
+    g = p.add_argument_group("per-episode budgets (beyond the thesis; docs/generalisation.md)")
+    g.add_argument("--observation", choices=OBSERVATIONS, default="thesis",
+                   help="thesis: items, agent and history planes; general: also the episode's maximum energy plane, "
+                        f"energies divided by {ENERGY_SCALE:g}")
+    g.add_argument("--energy-range", nargs=2, type=training_energy("--energy-range"), metavar=("LOW", "HIGH"),
+                   default=None, help="each episode's maximum energy: a whole number in [LOW, HIGH] (replaces "
+                                      "--energy; the evaluation during training draws from the range too)")
     add_a2c_arguments(p)
     add_config_arguments(p, "dcg")
     return p
@@ -113,8 +129,10 @@ def settle(args):
                            strategies=tuple(args.strategies.split(",")), history=args.history,
                            max_steps=args.max_steps, reward_area=args.reward_area,
                            min_reward_area=args.min_reward_area, eval_episodes=args.eval_episodes,
-                           greedy_eval=args.greedy_eval)
-    out = args.out or os.path.join("runs", f"dcg-{args.net}-e{args.energy:g}-s{seed_tag(args)}")
+                           greedy_eval=args.greedy_eval, observation=args.observation,
+                           energy_range=None if args.energy_range is None else tuple(args.energy_range))
+    energy = f"{args.energy:g}" if args.energy_range is None else "{:g}-{:g}".format(*args.energy_range)
+    out = args.out or os.path.join("runs", f"dcg-{args.net}-e{energy}-s{seed_tag(args)}")
     return settings, run_control(args, out)
 
 
@@ -139,7 +157,10 @@ def main(argv=None) -> int:
     def check_ship(args: argparse.Namespace) -> None:
         if args.ship is not None:
             blob = ship_path(args)
-            check_output_path(blob if blob.endswith(".msgpack") else blob + ".msgpack", "--ship")
+            blob = blob[: -len(".msgpack")] if blob.endswith(".msgpack") else blob
+            out = settle(args)[1].out
+            for path in (blob + ".msgpack", blob + ".json"):
+                check_output_path(path, "--ship", {"--config": config_file(args.config), "--out": run_outputs(out)})
 
     trained = train_from_command_line(parser, argv, "dcg", settings_from_metadata, settle, DCGRun, check_ship)
     if trained is None:  # --list-configs
@@ -151,7 +172,7 @@ def main(argv=None) -> int:
         acc = r.get("eval_opponent_accuracy")
         print(f"done: seed {seed}, {r['env_steps']} steps, eval reward {fmt(r['eval_reward'])} "
               f"(RPE {fmt(r['eval_rpe'])}" + (f", opponent accuracy {fmt(acc)})" if acc is not None else ")"))
-    if args.ship is not None:
+    if args.ship is not None and is_primary():  # with several processes, process 0 ships
         argv_text = sys.argv[1:] if argv is None else list(argv)
         try:
             path = run.ship(args.ship, "python -m train.dcg " + shlex.join(argv_text))

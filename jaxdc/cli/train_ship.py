@@ -31,7 +31,7 @@ import time
 from jaxdc.cli.args import positive_int, seed
 from jaxdc.io import check_output_folder
 from jaxdc.pretrained import ASSETS
-from jaxdc.training.ship import DCG_STRONG, EVERY, SHIPPED, export, train_all, train_command
+from jaxdc.training.ship import EVERY, SHIPPED, export, train_all, train_command
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -54,11 +54,15 @@ def main(argv=None) -> int:
     p = build_parser()
     args = p.parse_args(argv)
     names = args.only or list(SHIPPED)
-    if args.export_only and any(n in DCG_STRONG for n in names):
-        p.error(f"--export-only: {', '.join(n for n in names if n in DCG_STRONG)} are written by train.dcg --ship; "
+    dcg_names = [n for n in names if EVERY[n].problem == "dcg"]
+    if args.export_only and dcg_names:
+        p.error(f"--export-only: {', '.join(dcg_names)} are written by train.dcg --ship; "
                 "train them (a finished run folder is resumed)")
     try:
-        check_output_folder(args.out, "--out")
+        exported = [n for n in names if EVERY[n].problem != "dcg"]
+        check_output_folder(args.out, "--out", files=[f"{n}.{ext}" for n in exported for ext in ("msgpack", "json")],
+                            inputs={"--runs": [os.path.join(args.runs, n, f) for n in exported
+                                               for f in ("checkpoints", "config.json", "metrics.csv")]})
         if not args.export_only:
             check_output_folder(args.runs, "--runs")
     except ValueError as e:
@@ -71,7 +75,7 @@ def main(argv=None) -> int:
             print(f"error: training failed for {failed}; see {args.runs}/<name>.log", file=sys.stderr)
             return 1
     for n in names:
-        if n in DCG_STRONG:  # train.dcg --ship wrote it
+        if n in dcg_names:  # train.dcg --ship wrote it
             continue
         try:
             path = export(n, os.path.join(args.runs, n), commands[n], args.out)

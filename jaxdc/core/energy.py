@@ -26,6 +26,11 @@ from jaxdc.core.validate import check_float
 #: The largest finite budget: float32 counts every unit exactly up to 2**24, so ``energy - 1`` always lowers it.
 MAX_FINITE_ENERGY = float(2**24)
 
+#: The fixed scale of the energy planes of the ``"general"`` observations (DCP and DCG, beyond the thesis;
+#: docs/generalisation.md): energies are divided by it, so any budget up to 64 shows in [0, 1] and larger ones stay
+#: finite (the observation space grows with the budget).
+ENERGY_SCALE = 64.0
+
 #: What "energy consumed" counts (Tables 4.3-4.10; docs/ambiguities.md): ``"not_stay_in_base"`` -- every step
 #: except one that starts and ends in the base; ``"outside_base"`` -- steps that end outside the base (the actual
 #: decrements); ``"all_steps"`` -- every step.
@@ -55,6 +60,30 @@ def observed_energy_bound(max_energy: Any, max_steps: Any, init_energy: Any = No
 def check_budget(name: str, value: Any) -> float:
     """An energy budget: a number > 0, at most :data:`MAX_FINITE_ENERGY` or ``inf`` (no constraint)."""
     return check_float(name, value, 0.0, MAX_FINITE_ENERGY, low_open=True, allow_inf=True)
+
+
+def check_energy_range(energy_range: Any, minimum: float = 2.0, name: str = "energy_range") -> tuple[float, float]:
+    """``(low, high)``: whole, finite maximum energies with ``minimum <= low <= high <= MAX_FINITE_ENERGY`` (a range
+    of per-episode budgets, beyond the thesis). The errors name ``name``, the bound and the value."""
+    try:
+        low, high = energy_range
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a pair (low, high), got {energy_range!r}") from None
+    low = check_float(f"{name} low", low, minimum, MAX_FINITE_ENERGY)
+    high = check_float(f"{name} high", high, minimum, MAX_FINITE_ENERGY)
+    for which, v in (("low", low), ("high", high)):
+        if v != int(v):
+            raise ValueError(f"{name} {which} must be a whole number, got {v:g}")
+    if low > high:
+        raise ValueError(f"{name}: low ({low:g}) must not exceed high ({high:g})")
+    return low, high
+
+
+def draw_max_energy(key: jax.Array, energy_range: jax.Array) -> jax.Array:
+    """A maximum energy drawn uniformly among the integers of ``energy_range = [low, high]`` (float32; jit/vmap)."""
+    low, high = energy_range[0], energy_range[1]
+    max_e = jnp.floor(low + jax.random.uniform(key) * (high - low + 1.0))
+    return jnp.minimum(max_e, high).astype(jnp.float32)
 
 
 def energy_used(metric: str, in_base: Any, was_in_base: Any) -> jax.Array:

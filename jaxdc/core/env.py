@@ -24,6 +24,14 @@ outcome names (:attr:`Environment.outcomes`), the state and parameter types
 picture (:meth:`Environment.render_ansi`) and the layers of a drawn frame
 (:meth:`Environment.scene`, a :class:`~jaxdc.core.scene.Scene`);
 :func:`writes` says whether an environment writes a hook.
+
+Parameters and states of another environment (another grid size, another
+history length) are refused: their shapes are static, so
+:meth:`Environment.check_params` and :meth:`Environment.check_state` compare
+them with the shapes this environment needs (:meth:`Environment.grid_shapes`),
+and :meth:`Environment.reset` and :meth:`Environment.step` call them -- under
+``jit`` when the function is traced, so the first call raises a ``ValueError``
+instead of indexing with clamped indices.
 """
 
 from __future__ import annotations
@@ -32,6 +40,7 @@ from typing import Any, Generic, TypeVar
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax.custom_batching import custom_vmap
 
 from jaxdc.core import grid, spaces
@@ -108,6 +117,27 @@ class Environment(Generic[S, P]):
         """``(low, high)`` arrays (or numbers) bounding every observation (written by subclasses)."""
         raise NotImplementedError
 
+    def grid_shapes(self) -> tuple[dict[str, tuple[int, ...]], dict[str, tuple[int, ...]]]:
+        """``(params, state)``: for each field of the parameters and of the state whose shape this environment
+        sets (the grid, the history), that shape -- the last axes of the leaf (a ``vmap`` batch adds leading
+        ones). Written by subclasses; the base declares none."""
+        return {}, {}
+
+    def check_params(self, params: P) -> P:
+        """``params`` if they are this environment's kind and shape (:meth:`grid_shapes`), else a
+        ``TypeError``/``ValueError`` naming the field, its shape and the one needed. Shapes are static, so
+        this also works on traced parameters (inside ``jit``/``vmap``, when the function is traced)."""
+        _check_kind(self, params, self.params_type, "params", "make_params()")
+        _check_shapes(self, params, self.grid_shapes()[0], "params")
+        return params
+
+    def check_state(self, state: S) -> S:
+        """``state`` if it is this environment's kind and shape (:meth:`grid_shapes`), else a
+        ``TypeError``/``ValueError`` naming the field (see :meth:`check_params`)."""
+        _check_kind(self, state, self.state_type, "state", "reset()")
+        _check_shapes(self, state, self.grid_shapes()[1], "state")
+        return state
+
     # -- to be written by subclasses -------------------------------------------------
     def reset_env(self, key: jax.Array, params: P) -> tuple[jax.Array, S]:
         raise NotImplementedError
@@ -134,10 +164,11 @@ class Environment(Generic[S, P]):
 
     # -- public API ---------------------------------------------------------------------
     def reset(self, key: jax.Array, params: P | None = None) -> tuple[jax.Array, S]:
-        """Start an episode: ``(obs, state)``."""
+        """Start an episode: ``(obs, state)``. Parameters of another environment (another grid size) are
+        refused (:meth:`check_params`; under ``jit``, when traced)."""
         if params is None:
             params = self.default_params
-        return self.reset_env(key, params)
+        return self.reset_env(key, self.check_params(params))
 
     def step(self, key: jax.Array, state: S, action: Any, params: P | None = None) -> Transition:
         """One transition with auto-reset.
@@ -146,9 +177,18 @@ class Environment(Generic[S, P]):
         episode ends, ``obs``/``state`` are those of a fresh episode and
         ``info["final_observation"]`` holds the last observation of the old one
         (it equals ``obs`` otherwise).
+
+        Parameters or a state of another environment (another grid size or
+        history length) raise a ``ValueError`` naming the field and both shapes
+        (:meth:`check_params`, :meth:`check_state`). The shapes are static: under
+        ``jit`` the check runs when the step is traced (the first call with those
+        shapes), never inside the compiled step, which cannot raise; code that
+        calls ``step_env`` directly skips it and must check at its entry.
         """
         if params is None:
             params = self.default_params
+        self.check_params(params)
+        self.check_state(state)
         key_step, key_reset = jax.random.split(key)
         obs_st, state_st, reward, terminated, truncated, info = self.step_env(
             key_step, state, action, params
@@ -158,6 +198,25 @@ class Environment(Generic[S, P]):
         info = dict(info)
         info["final_observation"] = obs_st
         return obs, state, reward, terminated, truncated, info
+
+
+def _check_kind(env: Environment, obj: Any, cls: type | None, what: str, maker: str) -> None:
+    if cls is not None and not isinstance(obj, cls):
+        raise TypeError(f"{what} must be the {cls.__name__} of {env.name}.{maker}, got {type(obj).__name__}")
+
+
+def _check_shapes(env: Environment, obj: Any, shapes: dict[str, tuple[int, ...]], what: str) -> None:
+    for field, want in shapes.items():
+        leaf = getattr(obj, field, None)
+        if leaf is None:
+            continue
+        shape = tuple(np.shape(leaf))
+        if len(shape) < len(want) or shape[len(shape) - len(want):] != want:
+            whose, maker = ("these params belong", "make_params()") if what == "params" else \
+                ("this state belongs", "reset()")
+            raise ValueError(f"{what}.{field} has shape {shape}, but {env.name}(grid_size={env.grid_size}) needs "
+                             f"{want} (its last axes): {whose} to an environment of another grid size (or history "
+                             f"length); make them with this environment's {maker}")
 
 
 def writes(env: Environment, hook: str) -> bool:

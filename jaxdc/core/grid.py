@@ -198,11 +198,11 @@ def validate_risk_map(risk: Any, grid_size: int | None = None) -> np.ndarray:
         r, c = (int(i) for i in np.argwhere(~np.isfinite(arr))[0])
         raise ValueError(f"risk map values must be finite numbers in [0, 1], got {arr[r, c]} at cell ({r}, {c})")
     if arr.min() < 0 or arr.max() > 1:
-        raise ValueError(
-            f"risk map values must lie in [0, 1], got min {np.nanmin(arr):.4g}, max {np.nanmax(arr):.4g}"
-        )
+        r, c = (int(i) for i in np.argwhere((arr < 0) | (arr > 1))[0])
+        raise ValueError(f"risk map values must lie in [0, 1], got {arr[r, c]} at cell ({r}, {c}) (min {arr.min()}, "
+                         f"max {arr.max()})")
     if arr[0, 0] != 0:
-        raise ValueError(f"the base cell (0, 0) must have risk 0, got {arr[0, 0]:.4g}")
+        raise ValueError(f"the base cell (0, 0) must have risk 0, got {arr[0, 0]}")
     return arr
 
 

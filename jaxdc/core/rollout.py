@@ -40,6 +40,7 @@ def run_episodes(env: Environment, params: Any, policy: Callable, key: jax.Array
     vmap this function over them. ``lanes`` (default ``min(num_episodes,
     2048)``) trades memory for speed and never changes the results.
     """
+    env.check_params(params)  # another environment's (another grid size): refused before tracing
     n = int(num_episodes)
     lanes = min(n, int(lanes or DEFAULT_LANES))
     obs_shape, state_shape = jax.eval_shape(env.reset_env, jax.random.PRNGKey(0), params)

@@ -30,6 +30,7 @@ def play_episode(env: Environment, params: Any, policy: Callable, key: jax.Array
     terminated or truncated step, or after ``max_steps`` steps.
     """
     max_steps = check_positive_int("max_steps", max_steps)
+    env.check_params(params)  # another environment's (another grid size): refused before tracing
     _, state_shape = jax.eval_shape(env.reset_env, jax.random.PRNGKey(0), params)
     memory.check_fits(max_steps * memory.tree_bytes(state_shape), f"an episode of up to {max_steps} stored states",
                       "max_steps")

@@ -5,7 +5,8 @@ network trained on another grid or history length. Applying it would fail
 deep inside flax (or, worse, broadcast silently); :func:`check_like` compares
 the loaded pytree with freshly initialised parameters first. :func:`mismatch`
 is the comparison itself, which :mod:`jaxdc.checkpoint` also uses on a
-restored training state.
+restored training state; :func:`non_finite` finds the float leaves that hold a
+NaN or an infinity (a parameter file or checkpoint must hold none).
 """
 
 from __future__ import annotations
@@ -40,6 +41,26 @@ def mismatch(template: Any, tree: Any, key: Callable = jax.tree_util.keystr) -> 
         if got[k] != shape:
             return Mismatch([], [], k, got[k], shape)
     return None
+
+
+def slash_path(path: Any) -> str:
+    """A leaf's path (``jax.tree_util`` path entries) as ``/key/key`` (attributes by name, list entries by index)."""
+    return "".join(f"/{getattr(k, 'key', getattr(k, 'name', getattr(k, 'idx', k)))}" for k in path)
+
+
+def non_finite(tree: Any, key: Callable = jax.tree_util.keystr) -> list[tuple[str, int]]:
+    """``(name, count)`` of each float leaf of ``tree`` holding NaN or infinite values, in the tree's order
+    (traced leaves, inside a jit, are skipped: they are checked where their values are known)."""
+    out = []
+    for path, leaf in jax.tree_util.tree_flatten_with_path(tree)[0]:
+        if isinstance(leaf, jax.core.Tracer):
+            continue
+        a = np.asarray(leaf)
+        if np.issubdtype(a.dtype, np.inexact):
+            bad = int(a.size - np.count_nonzero(np.isfinite(a)))
+            if bad:
+                out.append((key(path), bad))
+    return out
 
 
 def check_like(template: Any, params: Any, source: str, what: str, hint: str = "") -> Any:

@@ -87,10 +87,20 @@ def check_float(name: str, value, low: float | None = None, high: float | None =
                              f"got {v}")
         return v
     if (low is not None and (v <= low if low_open else v < low)) or (high is not None and v > high):
-        raise ValueError(f"{name} must be {rng}, got {v:g}")
+        raise ValueError(f"{name} must be {rng}, got {value_text(v)}")
     if float32 and abs(v) > FLOAT32_MAX:
-        raise ValueError(f"{name} must be {rng} and fit in float32 (|x| <= {FLOAT32_MAX:.4g}), got {v:g}")
+        raise ValueError(f"{name} must be {rng} and fit in float32 (|x| <= {FLOAT32_MAX:.4g}), got {value_text(v)}")
     return v
+
+
+def value_text(v: float) -> str:
+    """A refused value as a message shows it: short (``%g``) when that reads back as ``v``, else in full
+    (``repr``), so that ``1.0000001`` never reads as ``1``."""
+    short = f"{v:g}"
+    try:
+        return short if float(short) == float(v) else repr(float(v))
+    except (TypeError, ValueError, OverflowError):
+        return repr(v)
 
 
 def _as_real(value) -> float | None:

@@ -29,6 +29,14 @@ Observation (section 5.4.1), channels-last: ``M^item`` (item rewards),
 collector is in a fog cell), and -- with ``obs_history=True`` -- the ``k``
 previous agent planes ``M^agent_{t-1} .. M^agent_{t-k}`` (the history ``h``
 of sections 5.4.3-5.4.5), kept in the state so that everything stays pure.
+
+Beyond the thesis (its conclusion: "changing the maximum energy level often
+means a fresh network needs to be trained"; docs/generalisation.md): with
+``make_params(energy_range=(low, high))`` each reset draws the episode's
+maximum energy uniformly among the integers of the range (the collector starts
+with it and refills to it); the state keeps it (``max_energy``). The
+``"general"`` observation shows it: a budget plane after ``M^agent``, and every
+energy divided by :data:`~jaxdc.core.energy.ENERGY_SCALE`.
 """
 
 from __future__ import annotations
@@ -45,17 +53,18 @@ from jaxdc.core import grid
 from jaxdc.core.energy import (
     ENERGY_METRICS,
     check_budget,
+    check_energy_range,
+    draw_max_energy,
     energy_used,
-    observed_energy,
-    observed_energy_bound,
     step_energy,
 )
 from jaxdc.core.env import Environment, Transition
 from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, uniform_index
 from jaxdc.core.scene import Scene
-from jaxdc.core.validate import INT32_MAX, check_int, is_int
+from jaxdc.core.validate import INT32_MAX, check_choice, check_int, is_int
 from jaxdc.dcg import opponents as opp_lib
 from jaxdc.dcg import picture
+from jaxdc.dcg.observation import CollectorObservation
 from jaxdc.dcg.opponents import CHASE_TIES, STANDARD_STRATEGIES, OpponentState
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
@@ -74,6 +83,13 @@ CAPTURES = ("both", "opponent_moves")
 #: Energy on a step where the opponent lands on the collector before it moves (rule 1): "charged" -- one unit,
 #: "regardless of what action was taken"; "uncharged" -- the step ends before the energy rule.
 CAUGHT_ENERGIES = ("charged", "uncharged")
+#: What the collector observes: the thesis' planes, or the ``"general"`` ones that show the episode's budget.
+OBSERVATIONS = ("thesis", "general")
+#: The smallest maximum energy of an ``energy_range``: the smallest whole budget (one step out of the base).
+MIN_RANGE_ENERGY = 1.0
+#: The key of an episode's budget draw is ``fold_in(reset key, ENERGY_STREAM)``: the rest of the reset draws as
+#: without a range, so a range ``(E, E)`` plays the same games as the fixed energy ``E``.
+ENERGY_STREAM = 0x454E
 
 
 @struct.dataclass
@@ -83,6 +99,8 @@ class EnvParams:
     max_energy: jax.Array  # float32; the collector starts with it and refills to it in the base
     max_steps: jax.Array  # int32 step cap (truncation)
     chase_tie: jax.Array  # int32 index into opponents.CHASE_TIES
+    # Beyond the thesis: [2] float32, each episode's maximum energy is an int drawn from [low, high] (None: max_energy)
+    energy_range: jax.Array | None = None
 
 
 @struct.dataclass
@@ -97,15 +115,10 @@ class EnvState:
     outcome: jax.Array  # int32 index into OUTCOMES
     ep_reward: jax.Array  # float32
     ep_energy: jax.Array  # int32 energy consumed so far (see ENERGY_METRICS)
+    max_energy: jax.Array | None = None  # float32 this episode's maximum energy (with params.energy_range only)
 
 
-def _check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
-    if value not in choices:
-        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
-    return value
-
-
-class DCG(Environment[EnvState, EnvParams]):
+class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
     """The DCG environment (section 5.3) with the gymnax-style functional API.
 
     Args:
@@ -144,6 +157,12 @@ class DCG(Environment[EnvState, EnvParams]):
         units over that square. A training distribution beyond the thesis (one
         network for every reward-area size, docs/dcg.md), as the DCP's
         ``min_total_reward`` is for the item count.
+      observation: ``"thesis"`` (default): the planes above. ``"general"``
+        (beyond the thesis): ``M^item``, ``M^agent`` with the energy divided
+        by :data:`~jaxdc.core.energy.ENERGY_SCALE`, then the episode's maximum
+        energy over the same scale on every cell, then the history (scaled
+        agent planes): ``[N, N, 3 + k]``, so one network can play every budget
+        (docs/generalisation.md).
     """
 
     outcomes: tuple[str, ...] = OUTCOMES
@@ -169,6 +188,7 @@ class DCG(Environment[EnvState, EnvParams]):
         opponent_enters_base: bool = True,
         caught_energy: str = "charged",
         min_reward_area: int | None = None,
+        observation: str = "thesis",
     ) -> None:
         self.grid_size = grid.check_grid_size(grid_size, max_cells=MAX_RANGE)  # the drop's uniform_index range
         if reward_area is not None:
@@ -192,14 +212,15 @@ class DCG(Environment[EnvState, EnvParams]):
         self.strategies = tuple(s.name for s in self._strategies)
         self.history = check_int("history (k)", history, 1)
         self.obs_history = bool(obs_history)
-        self.history_fill = _check_choice("history_fill", history_fill, HISTORY_FILLS)
+        self.history_fill = check_choice("history_fill", history_fill, HISTORY_FILLS)
         self.items_on_base = bool(items_on_base)
-        self.opponent_start = _check_choice("opponent_start", opponent_start, OPPONENT_STARTS)
-        self.patrol_target = _check_choice("patrol_target", patrol_target, PATROL_TARGETS)
+        self.opponent_start = check_choice("opponent_start", opponent_start, OPPONENT_STARTS)
+        self.patrol_target = check_choice("patrol_target", patrol_target, PATROL_TARGETS)
         self.reward_when_caught = bool(reward_when_caught)
-        self.energy_metric = _check_choice("energy_metric", energy_metric, ENERGY_METRICS)
-        self.capture = _check_choice("capture", capture, CAPTURES)
-        self.caught_energy = _check_choice("caught_energy", caught_energy, CAUGHT_ENERGIES)
+        self.energy_metric = check_choice("energy_metric", energy_metric, ENERGY_METRICS)
+        self.capture = check_choice("capture", capture, CAPTURES)
+        self.caught_energy = check_choice("caught_energy", caught_energy, CAUGHT_ENERGIES)
+        self.observation = check_choice("observation", observation, OBSERVATIONS)
         for name, v in (("safe_base", safe_base), ("opponent_enters_base", opponent_enters_base)):
             if not isinstance(v, (bool, np.bool_)):
                 raise TypeError(f"{name} must be a bool, got {v!r}")
@@ -212,7 +233,8 @@ class DCG(Environment[EnvState, EnvParams]):
         return (self.grid_size, self.total_reward, self._strategies, self.history, self.obs_history,
                 self.history_fill, self.items_on_base, self.opponent_start, self.patrol_target,
                 self.reward_when_caught, self.energy_metric, self.reward_area, self.capture, self.safe_base,
-                self.opponent_enters_base, self.caught_energy, self.min_reward_area)
+                self.opponent_enters_base, self.caught_energy, self.min_reward_area) + (
+                    () if self.observation == "thesis" else (self.observation,))
 
     def __repr__(self) -> str:
         return (
@@ -225,8 +247,14 @@ class DCG(Environment[EnvState, EnvParams]):
                f", capture={self.capture!r}, safe_base={self.safe_base}, "
                f"opponent_enters_base={self.opponent_enters_base}, caught_energy={self.caught_energy!r}")
             + ("" if self.min_reward_area is None else f", min_reward_area={self.min_reward_area}")
+            + ("" if self.observation == "thesis" else f", observation={self.observation!r}")
             + ")"
         )
+
+    def grid_shapes(self) -> tuple[dict[str, tuple[int, ...]], dict[str, tuple[int, ...]]]:
+        """The state's grid-shaped fields (the items, the history planes); the parameters have none."""
+        n = (self.grid_size, self.grid_size)
+        return {}, {"items": n, "history": n + (self.history,)}
 
     def default_rules(self) -> bool:
         """Whether the four rule readings (``capture`` ... ``caught_energy``) are the defaults."""
@@ -234,7 +262,8 @@ class DCG(Environment[EnvState, EnvParams]):
             CAPTURES[0], False, True, CAUGHT_ENERGIES[0])
 
     # -- parameters -------------------------------------------------------------------
-    def make_params(self, energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight") -> EnvParams:
+    def make_params(self, energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight",
+                    energy_range: Any = None) -> EnvParams:
         """Validated :class:`EnvParams`.
 
         Args:
@@ -243,15 +272,24 @@ class DCG(Environment[EnvState, EnvParams]):
           max_steps: the step cap (>= 1) that truncates an episode.
           chase_tie: how "moves towards" breaks ties, one of
             :data:`~jaxdc.dcg.opponents.CHASE_TIES`.
+          energy_range: ``None`` (the thesis: every episode has ``energy``) or
+            ``(low, high)``, whole numbers ``1 <= low <= high <= 2**24``: each
+            episode's maximum energy is drawn uniformly among the integers of
+            the range (beyond the thesis); ``energy`` is then not used.
         """
         e = check_budget("energy", energy)
         check_int("max_steps", max_steps, 1, INT32_MAX)
-        _check_choice("chase_tie", chase_tie, CHASE_TIES)
-        return EnvParams(
+        check_choice("chase_tie", chase_tie, CHASE_TIES)
+        params = EnvParams(
             max_energy=jnp.float32(e),
             max_steps=jnp.int32(max_steps),
             chase_tie=jnp.int32(CHASE_TIES.index(chase_tie)),
         )
+        if energy_range is None:
+            return params
+        low, high = check_energy_range(energy_range, MIN_RANGE_ENERGY)
+        return dataclasses.replace(params, max_energy=jnp.float32(high),
+                                   energy_range=jnp.asarray([low, high], jnp.float32))
 
     def reward_area_cells(self, size: int | None = None) -> np.ndarray:
         """Row-major flat indices of the cells that can hold an item (section 5.5.5, Fig. 5.10).
@@ -282,22 +320,17 @@ class DCG(Environment[EnvState, EnvParams]):
             table[i, : a.size] = a
         return jnp.asarray(table), jnp.asarray([a.size for a in areas], jnp.int32)
 
-    def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
-        return (self.grid_size, self.grid_size, 2 + (self.history if self.obs_history else 0))
-
-    def observation_bounds(self, params: EnvParams) -> tuple[np.ndarray, np.ndarray]:
-        """Items in ``[0, total_reward]``; agent and history planes in ``[-1, max_energy]`` (the opponent is -1;
-        ``max_steps`` stands for unlimited energy)."""
-        shape = self.observation_shape(params)
-        low = np.full(shape, -1.0, np.float32)
-        high = np.full(shape, observed_energy_bound(params.max_energy, params.max_steps), np.float32)
-        low[..., 0], high[..., 0] = 0.0, self.total_reward
-        return low, high
+    def max_energy_of(self, state: EnvState, params: EnvParams) -> jax.Array:
+        """The episode's maximum energy: ``params.max_energy``, or the one it drew from ``params.energy_range``."""
+        return params.max_energy if state.max_energy is None else state.max_energy
 
     # -- dynamics ---------------------------------------------------------------------
     def reset_env(self, key: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
         """The initial state of section 5.3: collector in the base, random opponent, items and strategy."""
         n, cells = self.grid_size, self.grid_size**2
+        budget = {}
+        if params.energy_range is not None:  # its own stream: the rest draws as with a fixed energy
+            budget["max_energy"] = draw_max_energy(jax.random.fold_in(key, ENERGY_STREAM), params.energy_range)
         k_items, k_opp, k_target, k_strat = jax.random.split(key, 4)
         if self.reward_area is None:
             items, _ = drop_units(k_items, self.total_reward, cells, 0 if self.items_on_base else 1)
@@ -324,7 +357,7 @@ class DCG(Environment[EnvState, EnvParams]):
         home = grid.unflat_index(start, n)
         state = EnvState(
             pos=jnp.zeros(2, jnp.int32),
-            energy=params.max_energy,
+            energy=budget.get("max_energy", params.max_energy),
             items=items.reshape(n, n),
             opponent=OpponentState(pos=home, home=home, target=grid.unflat_index(target, n), phase=jnp.int32(0)),
             strategy=uniform_index(k_strat, (), len(self.strategies)),
@@ -333,9 +366,10 @@ class DCG(Environment[EnvState, EnvParams]):
             outcome=jnp.int32(RUNNING),
             ep_reward=jnp.float32(0.0),
             ep_energy=jnp.int32(0),
+            **budget,
         )
         if self.history_fill == "first":
-            plane = self.agent_plane(state, params)
+            plane = self.observed_agent_plane(state, params)
             state = dataclasses.replace(state, history=jnp.repeat(plane[..., None], self.history, axis=-1))
         return self.observe(state, params), state
 
@@ -374,7 +408,7 @@ class DCG(Environment[EnvState, EnvParams]):
         reward = jnp.where(collect, item, 0.0)
         items = state.items.at[pos[0], pos[1]].set(jnp.where(collect, 0.0, item))
         in_base = jnp.all(pos == 0)  # (4)
-        energy, out_of_energy = step_energy(state.energy, params.max_energy, in_base)
+        energy, out_of_energy = step_energy(state.energy, self.max_energy_of(state, params), in_base)
         used = energy_used(self.energy_metric, in_base, jnp.all(state.pos == 0))
         if self.caught_energy == "uncharged":  # the step ends at rule (1), before the energy rule
             energy = jnp.where(caught_first, state.energy, energy)
@@ -385,7 +419,8 @@ class DCG(Environment[EnvState, EnvParams]):
             [CAUGHT, ENERGY, CLEARED, TRUNCATED],
             RUNNING,
         ).astype(jnp.int32)
-        history = jnp.concatenate([self.agent_plane(state, params)[..., None], state.history[..., :-1]], axis=-1)
+        history = jnp.concatenate([self.observed_agent_plane(state, params)[..., None], state.history[..., :-1]],
+                                  axis=-1)
         new_state = dataclasses.replace(
             state,
             pos=pos, energy=energy, items=items, opponent=opp, history=history, time=time, outcome=outcome,
@@ -403,38 +438,6 @@ class DCG(Environment[EnvState, EnvParams]):
             "invalid_action": invalid,
         }
         return self.observe(new_state, params), new_state, reward, terminated, truncated, info
-
-    # -- observations -----------------------------------------------------------------
-    def opponent_hidden(self, state: EnvState) -> jax.Array:
-        """Whether the collector cannot see the opponent: a fog-hiding strategy and the collector in the fog."""
-        hides = jnp.asarray([s.hides_in_fog for s in self._strategies])
-        return hides[state.strategy] & opp_lib.in_fog(state.pos)
-
-    def agent_plane(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """``M^agent`` as the collector observes it (section 5.4.1), ``[N, N]``.
-
-        The collector's energy at its cell, -1 at the opponent's (drawn over the
-        collector when they share a cell), 0 elsewhere; the opponent is left out
-        while :meth:`opponent_hidden`. An unlimited budget shows as ``max_steps``
-        (:func:`~jaxdc.core.energy.observed_energy`).
-        """
-        n = self.grid_size
-        rows, cols = jnp.arange(n)[:, None], jnp.arange(n)[None, :]
-        me = (rows == state.pos[0]) & (cols == state.pos[1])
-        opp = (rows == state.opponent.pos[0]) & (cols == state.opponent.pos[1]) & ~self.opponent_hidden(state)
-        energy = observed_energy(state.energy, params.max_steps)
-        return jnp.where(opp, -1.0, jnp.where(me, energy, 0.0)).astype(jnp.float32)
-
-    def planes(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """The current state ``s_t`` as two planes ``[N, N, 2]``: ``M^item``, ``M^agent``."""
-        return jnp.stack([state.items, self.agent_plane(state, params)], axis=-1)
-
-    def observe(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """``[N, N, 2 + k]`` (planes then history) with ``obs_history``, else ``[N, N, 2]``."""
-        planes = self.planes(state, params)
-        if self.obs_history:
-            return jnp.concatenate([planes, state.history], axis=-1)
-        return planes
 
     # -- pictures (outside jit; jaxdc.dcg.picture) ----------------------------------------
     def render_ansi(self, state: EnvState, params: EnvParams) -> str:

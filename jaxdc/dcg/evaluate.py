@@ -74,6 +74,10 @@ class Scored:
     def __hash__(self):
         return hash(("Scored", self.env))
 
+    def check_params(self, params: EnvParams) -> EnvParams:
+        """The game's check (:meth:`jaxdc.core.env.Environment.check_params`): params of another grid are refused."""
+        return self.env.check_params(params)
+
     def reset_env(self, key, params: EnvParams):
         obs, state = self.env.reset_env(key, params)
         return obs, ScoredState(state, jnp.int32(0), jnp.int32(0))
@@ -129,6 +133,7 @@ def evaluate_policy(env: DCG, params: EnvParams, policy: Callable, key, episodes
     """
     if not isinstance(env, DCG):
         raise TypeError(f"env must be a jaxdc.dcg.env.DCG, got {type(env).__name__}")
+    env.check_params(params)
     episodes = check_positive_int("episodes", episodes)
     scored = Scored(env)
     play = with_prediction(policy, predict)

@@ -39,17 +39,91 @@ DEFAULT_SETTING = {"grid_size": 5, "total_reward": 10, "energy": 15.0, "max_step
                    "strategies": list(STANDARD_STRATEGIES), "history": 10, "chase_tie": "straight"}
 #: ``DCG(...)`` options that change the dynamics, taken from the metadata (``"env"`` or top level) when present.
 ENV_OPTION_KEYS = ("history_fill", "items_on_base", "opponent_start", "patrol_target", "reward_when_caught",
-                   "energy_metric", "reward_area", "min_reward_area")
+                   "energy_metric", "reward_area", "min_reward_area", "observation")
 
 
-def make_network(name: str, history: int = 10) -> Any:
-    """The flax module of ``name`` (:data:`NETS`) for a history of ``k = history`` planes."""
-    return build("dcg", name, history=history)
+def _strategies(name: str, value: Any) -> Any:
+    """A stored strategy set: a list of names (or the comma-separated text of ``--strategies``)."""
+    from jaxdc.dcg.opponents import get_strategies
+
+    if not isinstance(value, (str, list)) or not all(isinstance(v, str) for v in value):
+        raise TypeError(f"{name} must be a list of strategy names, got {value!r}")
+    try:
+        get_strategies(value)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name}: {e}") from None
+    return value
 
 
-def init_params(net: Any, grid_size: int, history: int, key: jax.Array | None = None) -> Any:
-    """Fresh parameters of ``net`` for observations ``[1, N, N, 2 + k]`` (``k = 0``: no history, VNN)."""
-    obs = jnp.zeros((1, grid_size, grid_size, 2 + history), jnp.float32)
+def _energy_range(name: str, value: Any) -> tuple[float, float]:
+    """A stored range of maximum energies: a JSON pair ``[low, high]``
+    (:func:`jaxdc.core.energy.check_energy_range`)."""
+    from jaxdc.core.energy import check_energy_range
+
+    if not isinstance(value, list):
+        raise TypeError(f"{name} must be a pair [low, high], got {value!r}")
+    return check_energy_range(value, 1.0, name)
+
+
+def _setting_schema() -> dict[str, pretrained.SettingCheck]:
+    """The checks of a DCG network's stored setting: those of ``train.dcg``'s and ``eval.dcg``'s flags (the
+    constructor's choices and ranges), strict about JSON types."""
+    from jaxdc.core.energy import ENERGY_METRICS, MAX_FINITE_ENERGY
+    from jaxdc.core.sampling import MAX_TOTAL_REWARD
+    from jaxdc.core.validate import SEED_MAX
+    from jaxdc.dcg import env as dcg_env
+    from jaxdc.dcg.opponents import CHASE_TIES
+    from jaxdc.pretrained import json_bool, json_choice, json_int, json_number, json_object, optional
+
+    options = {"history_fill": json_choice(dcg_env.HISTORY_FILLS), "items_on_base": json_bool,
+               "opponent_start": json_choice(dcg_env.OPPONENT_STARTS),
+               "patrol_target": json_choice(dcg_env.PATROL_TARGETS), "reward_when_caught": json_bool,
+               "energy_metric": json_choice(ENERGY_METRICS), "reward_area": optional(json_int(1)),
+               "min_reward_area": optional(json_int(1)), "observation": json_choice(dcg_env.OBSERVATIONS)}
+    return {
+        "grid_size": json_int(2), "total_reward": json_int(1, MAX_TOTAL_REWARD),
+        "energy": json_number(0.0, MAX_FINITE_ENERGY, low_open=True), "max_steps": json_int(1),  # trained: finite
+        "strategies": _strategies, "history": json_int(0), "chase_tie": json_choice(CHASE_TIES),
+        "obs_history": json_bool, "alpha": optional(json_number(0.0)), "seed": json_int(0, SEED_MAX),
+        "steps": json_int(1, None), "updates": json_int(1, None), "energy_range": optional(_energy_range),
+        **options, "env": json_object(options),
+    }
+
+
+def check_setting(meta: dict, where: str) -> dict:
+    """``meta`` if its stored setting passes the checks of the flags (:func:`_setting_schema`), its history
+    planes fit in memory and it builds the game of training; else a ``ValueError`` (``MemoryError``) naming
+    ``where`` (the file) and the key."""
+    from jaxdc.core import memory
+
+    pretrained.check_settings(meta, where, _setting_schema())
+    n = meta.get("grid_size", DEFAULT_SETTING["grid_size"])
+    k = meta.get("history", DEFAULT_SETTING["history"])
+    # the network reads [N, N, 2 + k] planes and each game keeps [N, N, k]: the least an evaluation holds
+    memory.check_fits(2 * 4 * n * n * (2 + k), f"{where}: key 'history': {k} history planes of {n}x{n}",
+                      "the history (retrain with a smaller --history)")
+    try:
+        Learned(str(meta.get("net")), None, None, meta, where).game()
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{where}: its setting does not build the game: {e}") from None
+    return meta
+
+
+def state_channels(meta: dict) -> int:
+    """The state planes of the observation the network of ``meta`` was trained on: 2, or 3 for the ``"general"``
+    observation (beyond the thesis: the budget plane)."""
+    return 3 if meta.get("observation", meta.get("env", {}).get("observation")) == "general" else 2
+
+
+def make_network(name: str, history: int = 10, planes: int = 2) -> Any:
+    """The flax module of ``name`` (:data:`NETS`) for a history of ``k = history`` planes after ``planes`` state
+    planes."""
+    return build("dcg", name, history=history, state_channels=planes)
+
+
+def init_params(net: Any, grid_size: int, history: int, key: jax.Array | None = None, planes: int = 2) -> Any:
+    """Fresh parameters of ``net`` for observations ``[1, N, N, planes + k]`` (``k = 0``: no history, VNN)."""
+    obs = jnp.zeros((1, grid_size, grid_size, planes + history), jnp.float32)
     return net.init(key if key is not None else jax.random.PRNGKey(0), obs, jnp.zeros((1, 1, 9), jnp.float32))
 
 
@@ -88,7 +162,8 @@ class Learned(pretrained.Learned):
              max_steps: int | None = None) -> tuple[DCG, Any]:
         """``(env, params)``: the DCG of training, with the given settings changed.
 
-        ``reward_area`` (Figs. 5.10-5.12) places one unit item uniformly in the
+        A network trained over a range of maximum energies (``energy_range`` in its metadata) plays that range
+        unless ``energy`` fixes one. ``reward_area`` (Figs. 5.10-5.12) places one unit item uniformly in the
         bottom-right ``s x s`` square. The initial states depend only on the
         key, not on the network, so two networks evaluated with the same key
         play the same games.
@@ -104,9 +179,10 @@ class Learned(pretrained.Learned):
         env = DCG(grid_size=s["grid_size"], total_reward=1 if reward_area is not None else s["total_reward"],
                   strategies=tuple(strategies if strategies is not None else s["strategies"]),
                   history=max(k, 1), obs_history=obs_history, **options)
+        energy_range = self.metadata.get("energy_range") if energy is None else None
         params = env.make_params(energy=s["energy"] if energy is None else energy,
                                  max_steps=s["max_steps"] if max_steps is None else max_steps,
-                                 chase_tie=s["chase_tie"])
+                                 chase_tie=s["chase_tie"], energy_range=energy_range)
         return env, params
 
     def policy(self, greedy: bool = False) -> Callable:
@@ -124,16 +200,19 @@ class Learned(pretrained.Learned):
                 f"trained on {s['grid_size']}x{s['grid_size']}, {s['total_reward']} rewards"
                 + (f" in the bottom-right {area}x{area} square" if (area := self.metadata.get("reward_area")) else "")
                 + (f" (sizes {m}-{area})" if (m := self.metadata.get("min_reward_area")) else "")
-                + f", energy {s['energy']:g}, "
-                f"strategies {','.join(s['strategies'])}, history {s['history']}, "
+                + (f", energy {float(s['energy']):g}, " if not (r := self.metadata.get("energy_range")) else
+                   f", energies {r[0]:g}-{r[1]:g} ({self.metadata.get('observation', 'thesis')} observation), ")
+                + f"strategies {','.join(s['strategies'])}, history {s['history']}, "
                 f"{self.steps or '?'} steps, seed {self.metadata.get('seed', '?')} ({self.source})")
 
 
 def _check(name, net, params, meta, source):
     n = meta.get("grid_size", DEFAULT_SETTING["grid_size"])
     k = meta.get("history", DEFAULT_SETTING["history"])
-    what = f"a {name} network with history k={k} on a {n}x{n} grid"
-    return check_like(init_params(net, n, k), params, source, what,
+    planes = state_channels(meta)
+    what = f"a {name} network with history k={k} on a {n}x{n} grid" + (
+        "" if planes == 2 else " reading the general observation")
+    return check_like(init_params(net, n, k, planes=planes), params, source, what,
                       "was it trained on another grid size or history length?")
 
 
@@ -145,10 +224,11 @@ def load(path: pretrained.PathLike, net: str | None = None) -> Learned:
     (:func:`jaxdc.pretrained.check_finite`).
     """
     def target(name: str, meta: dict, source: str) -> Any:
-        return train_state_template(make_network(name, meta.get("history", DEFAULT_SETTING["history"])), meta, source)
+        return train_state_template(make_network(name, meta.get("history", DEFAULT_SETTING["history"]),
+                                                 state_channels(meta)), meta, source)
 
-    name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net)
-    module = make_network(name, meta.get("history", DEFAULT_SETTING["history"]))
+    name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net, check_setting=check_setting)
+    module = make_network(name, meta.get("history", DEFAULT_SETTING["history"]), state_channels(meta))
     params = _check(name, module, params, meta, source)
     return Learned(name, module, params, meta, source)
 

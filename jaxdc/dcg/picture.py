@@ -52,7 +52,7 @@ def render_ansi(env: DCG, state: Any, params: Any) -> str:
         rows.append(" ".join(cells))
     energy = float(state.energy)
     rows.append(
-        f"energy {energy:g}/{float(params.max_energy):g}, reward {float(state.ep_reward):g}, "
+        f"energy {energy:g}/{float(env.max_energy_of(state, params)):g}, reward {float(state.ep_reward):g}, "
         f"step {int(state.time)}, opponent {env.strategies[int(state.strategy)]}"
         + (" (hidden)" if hidden else "")
     )
@@ -65,7 +65,7 @@ def scene(env: DCG, state: Any, params: Any) -> Scene:
     fog-hiding one; the status line names the episode's strategy."""
     strategy = opp_lib.get_strategies((env.strategies[int(state.strategy)],))[0]
     return Scene(items=np.asarray(state.items), agent=np.asarray(state.pos), energy=state.energy,
-                 max_energy=params.max_energy, reward=state.ep_reward, step=int(state.time),
+                 max_energy=env.max_energy_of(state, params), reward=state.ep_reward, step=int(state.time),
                  outcome=env.outcomes[int(state.outcome)], opponent=np.asarray(state.opponent.pos),
                  opponent_hidden=bool(strategy.hides_in_fog and opp_lib.in_fog(np.asarray(state.pos))),
                  fog=strategy.name in opp_lib.FOG_STRATEGIES or strategy.hides_in_fog,

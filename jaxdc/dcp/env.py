@@ -33,7 +33,9 @@ from flax import struct
 from jaxdc.core import grid
 from jaxdc.core.energy import (
     ENERGY_METRICS,
+    ENERGY_SCALE,
     check_budget,
+    draw_max_energy,
     energy_used,
     observed_energy,
     observed_energy_bound,
@@ -55,9 +57,6 @@ ITEM_ORDERS = ("drop", "row_major")
 #: What the agent observes: the thesis' two planes, or four planes a network can generalise from (beyond the
 #: thesis: the risk map and the budget, docs/generalisation.md).
 OBSERVATIONS = ("thesis", "general")
-#: The fixed scale of the energy planes of the ``"general"`` observation: energies are divided by it, so any
-#: budget up to 64 shows in [0, 1] and larger ones stay finite (the observation space grows with the budget).
-ENERGY_SCALE = 64.0
 
 
 @struct.dataclass
@@ -127,7 +126,7 @@ class DCP(Environment[EnvState, EnvParams]):
         ``"general"`` (beyond the thesis): four planes ``[N, N, 4]``: items,
         the energy at the agent's cell, the episode's risk map and its
         maximum energy on every cell, both energies divided by
-        :data:`ENERGY_SCALE`; a network that sees them can play maps and
+        :data:`~jaxdc.core.energy.ENERGY_SCALE`; a network that sees them can play maps and
         budgets it was not trained on (docs/generalisation.md).
 
     With per-episode instances (``params.maps``, built by
@@ -212,13 +211,18 @@ class DCP(Environment[EnvState, EnvParams]):
             max_steps=jnp.int32(max_steps),
         )
 
+    def grid_shapes(self) -> tuple[dict[str, tuple[int, ...]], dict[str, tuple[int, ...]]]:
+        """The grid-shaped fields: the risk map(s) of the parameters, the items and ranks of the state."""
+        n = (self.grid_size, self.grid_size)
+        return {"risk": n, "maps": n}, {"items": n, "rank": n, "pos": (2,)}
+
     def observation_shape(self, params: EnvParams | None = None) -> tuple[int, int, int]:
         return (self.grid_size, self.grid_size, 2 if self.observation == "thesis" else 4)
 
     def observation_bounds(self, params: EnvParams) -> tuple[float, np.ndarray]:
         """Items in ``[0, total_reward]``; the energy plane in ``[0, observed_energy_bound(...)]`` (the budget, or
-        ``max_steps`` for an unlimited one); ``"general"``: both energy planes over :data:`ENERGY_SCALE`, the
-        risk plane in ``[0, 1]``."""
+        ``max_steps`` for an unlimited one); ``"general"``: both energy planes over
+        :data:`~jaxdc.core.energy.ENERGY_SCALE`, the risk plane in ``[0, 1]``."""
         high = np.zeros(self.observation_shape(params), np.float32)
         high[..., 0] = self.total_reward
         if params.energy_range is not None:
@@ -246,9 +250,7 @@ class DCP(Environment[EnvState, EnvParams]):
         assert params.maps is not None and params.energy_range is not None and params.init_fraction is not None
         k_map, k_energy = jax.random.split(key)
         map_id = uniform_index(k_map, (), params.maps.shape[0])
-        low, high = params.energy_range[0], params.energy_range[1]
-        max_e = jnp.floor(low + jax.random.uniform(k_energy) * (high - low + 1.0))
-        max_e = jnp.minimum(max_e, high).astype(jnp.float32)
+        max_e = draw_max_energy(k_energy, params.energy_range)
         init_e = jnp.clip(jnp.round(params.init_fraction * max_e), 1.0, max_e).astype(jnp.float32)
         return map_id, init_e, max_e
 
@@ -341,7 +343,8 @@ class DCP(Environment[EnvState, EnvParams]):
     def observe(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The two planes ``[N, N, 2]``: item rewards and the energy at the agent's cell (section 4.5.1; an
         unlimited budget shows as ``max_steps``, :func:`~jaxdc.core.energy.observed_energy`). ``"general"``:
-        then the episode's risk map and its maximum energy on every cell, energies over :data:`ENERGY_SCALE`."""
+        then the episode's risk map and its maximum energy on every cell, energies over
+        :data:`~jaxdc.core.energy.ENERGY_SCALE`."""
         n = self.grid_size
         here = (jnp.arange(n)[:, None] == state.pos[0]) & (jnp.arange(n)[None, :] == state.pos[1])
         agent = jnp.where(here, observed_energy(state.energy, params.max_steps), 0.0).astype(jnp.float32)

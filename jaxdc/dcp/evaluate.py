@@ -57,6 +57,7 @@ def evaluate_heuristic(
     """Final states of ``episodes`` episodes of heuristic policy ``name`` (jitted, batched); with per-episode maps
     (``params.maps``) each episode plans on its own map's table."""
     check_choice("policy", name, navigators.POLICIES)
+    env.check_params(params)
     if params.maps is not None:
         return _run_instance_heuristic(env, params, key, name, cfg, check_positive_int("episodes", episodes))
     return _run_heuristic(env, params, key, name, cfg, check_positive_int("episodes", episodes), path_risk)
@@ -99,6 +100,7 @@ def evaluate_learned(
     """
     from jaxdc.dcp.learned import EQN_EPSILON, check_params
 
+    env.check_params(params)
     epsilon = EQN_EPSILON if epsilon is None else float(epsilon)
     if not 0.0 <= epsilon <= 1.0:
         raise ValueError(f"epsilon must be in [0, 1], got {epsilon!r}")
@@ -131,6 +133,7 @@ def evaluate_optimal(env: DCP, params: EnvParams, key, episodes: int = 10_000) -
 
     if env.total_reward != 1:
         raise ValueError(f"policy 'optimal' needs total_reward=1 (the single-item setting), got {env.total_reward}")
+    env.check_params(params)
     sol = solve_single_item(
         np.asarray(params.risk), float(params.max_energy), float(params.init_energy), grid_size=env.grid_size
     )

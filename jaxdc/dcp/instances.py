@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdc.core import grid
-from jaxdc.core.energy import MAX_FINITE_ENERGY
+from jaxdc.core.energy import check_energy_range as check_range
 from jaxdc.core.memory import check_fits
 from jaxdc.core.paths import PathTable, safest_paths
 from jaxdc.core.validate import check_float
@@ -64,19 +64,9 @@ def check_maps(maps: Any, grid_size: int) -> np.ndarray:
 
 
 def check_energy_range(energy_range: Any) -> tuple[float, float]:
-    """``(low, high)``: integer maximum energies with ``2 <= low <= high`` (finite)."""
-    try:
-        low, high = energy_range
-    except (TypeError, ValueError):
-        raise TypeError(f"energy_range must be a pair (low, high), got {energy_range!r}") from None
-    low = check_float("energy_range low", low, 2.0, MAX_FINITE_ENERGY)
-    high = check_float("energy_range high", high, 2.0, MAX_FINITE_ENERGY)
-    for name, v in (("low", low), ("high", high)):
-        if v != int(v):
-            raise ValueError(f"energy_range {name} must be a whole number, got {v:g}")
-    if low > high:
-        raise ValueError(f"energy_range: low ({low:g}) must not exceed high ({high:g})")
-    return low, high
+    """``(low, high)``: integer maximum energies with ``2 <= low <= high`` (finite;
+    :func:`jaxdc.core.energy.check_energy_range`)."""
+    return check_range(energy_range, 2.0)
 
 
 #: The tables of a batch of maps, compiled once per batch shape.

@@ -41,6 +41,49 @@ DEFAULT_SETTING = {"grid_size": 8, "total_reward": 30, "risk": "high", "energy":
 ENV_OPTION_KEYS = ("start", "items_on_base", "idle_terminates", "item_order")
 
 
+def _setting_schema() -> dict[str, pretrained.SettingCheck]:
+    """The checks of a DCP network's stored setting: those of ``train.dcp``'s and ``eval.dcp``'s flags (the
+    constructor's choices and ranges), strict about JSON types."""
+    from jaxdc.core import grid
+    from jaxdc.core.energy import ENERGY_METRICS, MAX_FINITE_ENERGY
+    from jaxdc.core.generators import GENERATORS
+    from jaxdc.core.sampling import MAX_TOTAL_REWARD
+    from jaxdc.core.validate import SEED_MAX
+    from jaxdc.dcp import env as dcp_env
+    from jaxdc.pretrained import json_bool, json_choice, json_int, json_list, json_number, json_object, optional
+
+    budget = json_number(0.0, MAX_FINITE_ENERGY, low_open=True, allow_inf=True)
+    return {
+        "grid_size": json_int(2), "total_reward": json_int(1, MAX_TOTAL_REWARD),
+        "risk": json_choice(sorted(grid.RISK_PRESETS)), "energy": json_list(budget, 2), "max_steps": json_int(1),
+        "min_total_reward": optional(json_int(1, MAX_TOTAL_REWARD)), "observation": json_choice(dcp_env.OBSERVATIONS),
+        "seed": json_int(0, SEED_MAX), "steps": json_int(1, None), "updates": json_int(1, None),
+        "risk_maps": optional(json_choice(tuple(GENERATORS))), "map_seeds": optional(json_list(json_int(0), 2)),
+        "energy_range": optional(json_list(json_number(0.0, MAX_FINITE_ENERGY, low_open=True), 2)),
+        "init_fraction": optional(json_number(0.0, 1.0)),
+        "env": json_object({"start": json_choice(dcp_env.STARTS), "items_on_base": json_bool,
+                            "idle_terminates": json_bool, "item_order": json_choice(dcp_env.ITEM_ORDERS),
+                            "energy_metric": json_choice(ENERGY_METRICS)}),
+    }
+
+
+def check_setting(meta: dict, where: str) -> dict:
+    """``meta`` if its stored setting passes the checks of the flags (:func:`_setting_schema`) and builds the
+    environment of training; else a ``ValueError`` naming ``where`` (the file) and the key."""
+    from jaxdc.dcp.env import DCP
+
+    pretrained.check_settings(meta, where, _setting_schema())
+    s = {k: meta.get(k, DEFAULT_SETTING[k]) for k in SETTING_KEYS}
+    energy = tuple(float(e) for e in s["energy"])  # "inf" reads as inf
+    try:
+        env = DCP(grid_size=s["grid_size"], total_reward=s["total_reward"], observation=observation_of(meta),
+                  **{k: meta["env"][k] for k in ENV_OPTION_KEYS if k in meta.get("env", {})})
+        env.make_params(s["risk"], energy, s["max_steps"])
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{where}: its setting does not build the environment: {e}") from None
+    return meta
+
+
 def observation_of(meta: dict) -> str:
     """The observation a network was trained on (``"thesis"`` where the metadata predates the key)."""
     return meta.get("observation", "thesis")
@@ -130,7 +173,8 @@ def load(path: pretrained.PathLike, net: str | None = None, grid_size: int | Non
     ``run_seed`` picks one seed of a ``train.dcp --seeds`` run folder.
     """
     name, params, meta, source = pretrained.load_trained(path, "dcp", NETS, _train_state, net,
-                                                         _grid_checker(grid_size), run_seed=run_seed)
+                                                         _grid_checker(grid_size), run_seed=run_seed,
+                                                         check_setting=check_setting)
     module = make_network(name)
     params = check_params(name, module, params, meta.get("grid_size", DEFAULT_SETTING["grid_size"]), source,
                           observation_of(meta))

@@ -238,11 +238,16 @@ def to_dict(graph: Graph) -> dict:
 def load(path) -> Graph:
     """Read and validate a graph JSON file."""
     # read leniently: a NaN or Infinity in the file is refused by validate(), which names the field (base[1])
-    with open(path) as f:
-        try:
+    try:
+        with open(path) as f:
             data = json.load(f)
-        except json.JSONDecodeError as e:
-            raise ValueError(f"graph file {path} is not valid JSON: {e}") from None
+    except json.JSONDecodeError as e:
+        raise ValueError(f"graph file {path} is not valid JSON: {e}") from None
+    except RecursionError:
+        raise ValueError(f"graph file {path}: nested too deeply to be read (a graph is an object of flat lists)") \
+            from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise ValueError(f"graph file {path}: cannot read it: {e}") from None
     return from_dict(data)
 
 

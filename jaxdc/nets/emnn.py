@@ -28,6 +28,6 @@ class EMNN(IMNN):
         self.opponent_out = nn.Dense(self.num_actions)
 
     def __call__(self, obs, heuristics=None):
-        check_history_channels(obs, self.history, type(self).__name__)
+        check_history_channels(obs, self.history, type(self).__name__, self.state_channels)
         h = self.body(obs)
         return self.policy_out(h), self.value_out(h)[:, 0], self.opponent_out(h)

@@ -40,7 +40,7 @@ import jax.numpy as jnp
 
 from jaxdc.nets.body import ConvBody
 from jaxdc.nets.cnn import CNN
-from jaxdc.nets.vnn import check_history_channels
+from jaxdc.nets.vnn import STATE_CHANNELS, check_history_channels
 
 
 def prediction_planes(obs, opponent_logits):
@@ -68,6 +68,7 @@ class OMNCoNN(nn.Module):
 
     num_actions: int = 9
     history: int = 10
+    state_channels: int = STATE_CHANNELS  # 3: the general observation's budget plane (beyond the thesis)
     uses_heuristics = False
     has_aux = True
     #: OMN's parameters (top-level name), for a separate learning rate (``A2CConfig.aux_lr``; not in the thesis).
@@ -78,12 +79,12 @@ class OMNCoNN(nn.Module):
         self.conn = CNN(self.num_actions)  # IMNN's layers on the wider input
 
     def __call__(self, obs, heuristics=None):
-        check_history_channels(obs, self.history, type(self).__name__)
+        check_history_channels(obs, self.history, type(self).__name__, self.state_channels)
         opponent_logits = self.omn(obs)
         logits, value = self.conn(prediction_planes(obs, opponent_logits))
         return logits, value, opponent_logits
 
     def value(self, obs):
         """``V(s, h, pi^o(s, h))``."""
-        check_history_channels(obs, self.history, type(self).__name__)
+        check_history_channels(obs, self.history, type(self).__name__, self.state_channels)
         return self.conn.value(prediction_planes(obs, self.omn(obs)))

@@ -73,17 +73,24 @@ def entry(problem: str, name: str) -> NetEntry:
     return nets[name]
 
 
-def build(problem: str, name: str, history: int = 10, num_heuristics: int = 10, num_actions: int = 9) -> nn.Module:
+def build(problem: str, name: str, history: int = 10, num_heuristics: int = 10, num_actions: int = 9,
+          state_channels: int = 2) -> nn.Module:
     """The flax module of network ``name`` of ``problem``.
 
     A DCG network that reads history planes needs ``history >= 1`` (section 5.5.2: ``k = 10``); VNN and the DCP's
-    networks ignore it. ENN and EQN combine ``num_heuristics`` heuristics (section 4.4.3).
+    networks ignore it. ENN and EQN combine ``num_heuristics`` heuristics (section 4.4.3). A DCG network reads
+    ``state_channels`` state planes before the history (2; 3 for the ``"general"`` observation's budget plane).
     """
     e = entry(problem, name)
+    if problem == "dcg" and state_channels not in (2, 3):
+        raise ValueError(f"state_channels must be 2 (thesis) or 3 (general observation), got {state_channels!r}")
+    extra = {} if state_channels == 2 else {"state_channels": state_channels}
     if e.takes_history:
         if not is_int(history, numpy=False) or history < 1:
             raise ValueError(f"history (k) must be an int >= 1 for {name}, got {history!r}")
-        return e.cls(num_actions, history=history)
+        return e.cls(num_actions, history=history, **extra)
+    if problem == "dcg":
+        return e.cls(num_actions, **extra)
     if issubclass(e.cls, HeuristicNet):  # ENN, EQN
         return e.cls(num_heuristics, num_actions)
     return e.cls(num_actions)

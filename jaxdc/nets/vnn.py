@@ -10,6 +10,9 @@ then the history ``M^agent_{t-1} .. M^agent_{t-k}`` (:mod:`jaxdc.dcg.env`).
   Changing the history channels does not change its output.
 * **IMNN** (5.4.3) reads state and history: all ``2 + k`` channels. "IMNN has
   the same network structure as the VNN ... except for the input layer."
+
+``state_channels`` (beyond the thesis) is 3 for the ``"general"`` observation
+of :class:`jaxdc.dcg.env.DCG`, whose state adds the budget plane; 2 otherwise.
 """
 
 from __future__ import annotations
@@ -20,25 +23,28 @@ from jaxdc.nets.cnn import CNN
 STATE_CHANNELS = 2
 
 
-def check_history_channels(obs, history: int, name: str) -> None:
-    """Raise a ``ValueError`` unless ``obs`` has ``2 + history`` channels (a static shape check, jit-safe)."""
-    if obs.shape[-1] != STATE_CHANNELS + history:
-        raise ValueError(f"{name} with history k={history} expects observations [B, N, N, {STATE_CHANNELS + history}] "
+def check_history_channels(obs, history: int, name: str, state_channels: int = STATE_CHANNELS) -> None:
+    """Raise a ``ValueError`` unless ``obs`` has ``state_channels + history`` channels (a static shape check,
+    jit-safe)."""
+    if obs.shape[-1] != state_channels + history:
+        raise ValueError(f"{name} with history k={history} expects observations [B, N, N, {state_channels + history}] "
                          f"(state and history, DCG(history={history}, obs_history=True)), got {tuple(obs.shape)}")
 
 
 class VNN(CNN):
     """Vanilla Navigation Network (section 5.4.2, Fig. 5.2): ``obs [B, N, N, >=2] -> (logits [B, A], value [B])``.
 
-    Only ``obs[..., :2]`` (the state ``s``) is read, so VNN cannot model the opponent.
+    Only ``obs[..., :state_channels]`` (the state ``s``) is read, so VNN cannot model the opponent.
     """
 
+    state_channels: int = STATE_CHANNELS
+
     def __call__(self, obs, heuristics=None):
-        return super().__call__(obs[..., :STATE_CHANNELS])
+        return super().__call__(obs[..., :self.state_channels])
 
     def value(self, obs):
         """``V(s)``."""
-        return super().value(obs[..., :STATE_CHANNELS])
+        return super().value(obs[..., :self.state_channels])
 
 
 class IMNN(CNN):
@@ -48,12 +54,13 @@ class IMNN(CNN):
     """
 
     history: int = 10
+    state_channels: int = STATE_CHANNELS
 
     def __call__(self, obs, heuristics=None):
-        check_history_channels(obs, self.history, type(self).__name__)
+        check_history_channels(obs, self.history, type(self).__name__, self.state_channels)
         return super().__call__(obs)
 
     def value(self, obs):
         """``V(s, h)``."""
-        check_history_channels(obs, self.history, type(self).__name__)
+        check_history_channels(obs, self.history, type(self).__name__, self.state_channels)
         return super().value(obs)

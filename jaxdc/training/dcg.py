@@ -23,10 +23,12 @@ import jax.numpy as jnp
 
 from jaxdc import pretrained
 from jaxdc.agents import a2c
+from jaxdc.core.energy import check_energy_range
 from jaxdc.core.env import step_batch
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import episode_summary
-from jaxdc.dcg.env import DCG, OUTCOMES
+from jaxdc.core.validate import check_choice
+from jaxdc.dcg.env import DCG, MIN_RANGE_ENERGY, OBSERVATIONS, OUTCOMES
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.metadata import FORMAT, algorithm_config, check_run
 from jaxdc.nets import DCG_NETS, build
@@ -54,6 +56,11 @@ class DCGSettings:
         game's default).
       reward_area, min_reward_area: the one-item game of section 5.5.5 (beyond the thesis as a training game).
       eval_episodes, greedy_eval: the evaluation.
+      observation: ``"thesis"`` or ``"general"`` (:data:`jaxdc.dcg.env.OBSERVATIONS`: the budget plane and scaled
+        energies; beyond the thesis, docs/generalisation.md).
+      energy_range: ``None`` (every episode has ``energy``) or ``(low, high)``: each training and evaluation
+        episode draws its maximum energy among the integers of the range (beyond the thesis); ``energy`` is then
+        only recorded.
     """
 
     net: str
@@ -69,6 +76,13 @@ class DCGSettings:
     min_reward_area: int | None = None
     eval_episodes: int = 500
     greedy_eval: bool = False
+    observation: str = "thesis"
+    energy_range: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        check_choice("observation", self.observation, OBSERVATIONS)
+        if self.energy_range is not None:
+            check_energy_range(self.energy_range, MIN_RANGE_ENERGY)
 
     @property
     def has_aux(self) -> bool:
@@ -104,8 +118,8 @@ def make_env(s: DCGSettings) -> tuple[DCG, Any]:
     history_net = s.net != "vnn"
     env = DCG(grid_size=s.grid_size, total_reward=s.total_reward, strategies=",".join(s.strategies),
               history=s.history if history_net else 1, obs_history=history_net, reward_area=s.reward_area,
-              min_reward_area=s.min_reward_area)
-    return env, env.make_params(energy=s.energy, max_steps=s.max_steps)
+              min_reward_area=s.min_reward_area, observation=s.observation)
+    return env, env.make_params(energy=s.energy, max_steps=s.max_steps, energy_range=s.energy_range)
 
 
 def run_metadata(s: DCGSettings, env: DCG, seeds: Iterable[int]) -> dict[str, Any]:
@@ -119,6 +133,9 @@ def run_metadata(s: DCGSettings, env: DCG, seeds: Iterable[int]) -> dict[str, An
         "reward_area": s.reward_area, "min_reward_area": s.min_reward_area,
         **({"seeds": seeds} if len(seeds) > 1 else {"seed": seeds[0]}),
         "algorithm": dataclasses.asdict(s.config),
+        # beyond the thesis, written only when set (the thesis' runs' files are unchanged)
+        **({} if s.observation == "thesis" else {"observation": s.observation}),
+        **({} if s.energy_range is None else {"energy_range": list(s.energy_range)}),
     }
 
 
@@ -129,7 +146,11 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCGSettings, tuple
     ``where`` (:func:`jaxdc.metadata.check_run`)."""
     meta = check_run(meta, "dcg", where)
     setting = {k: meta[k] for k in ("alpha", "energy", "grid_size", "total_reward", "max_steps", "reward_area",
-                                    "min_reward_area") if meta.get(k) is not None}
+                                    "min_reward_area", "observation") if meta.get(k) is not None}
+    if meta.get("energy_range") is not None:
+        if not isinstance(meta["energy_range"], list) or len(meta["energy_range"]) != 2:
+            raise ValueError(f"{where}: energy_range={meta['energy_range']!r} must be a pair [low, high]")
+        setting["energy_range"] = tuple(meta["energy_range"])
     if meta.get("history"):
         setting["history"] = meta["history"]
     if "strategies" in meta:
@@ -149,11 +170,12 @@ class DCGRun(TrainingRun):
 
     def __init__(self, settings: DCGSettings, control: RunControl) -> None:
         s = self.settings = settings
-        self.net = build("dcg", s.net, history=s.history)  # validates net and k
         self.env, self.env_params = make_env(s)  # validates grid, strategies, energy
+        self.net = build("dcg", s.net, history=s.history, state_channels=self.env.state_channels)  # validates k
         if s.config.aux_lr is not None and s.net != "omn_conn":
             raise SettingError(f"{{0}} sets OMN's learning rate and applies to {{1}} omn_conn only, not "
                                f"{SettingError.text(repr(s.net))}", "aux_lr", "net")
+        self.claim(control, run_metadata(s, self.env, control.seeds))  # lock, check a resume: before the build
         check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
         aux = s.has_aux
         trainer, mesh = spread(a2c.make_train(s.config, self.env, self.env_params, self.net,

@@ -134,6 +134,7 @@ class DCPRun(TrainingRun):
 
     def __init__(self, settings: DCPSettings, control: RunControl) -> None:
         s = self.settings = settings
+        self.claim(control, run_metadata(s, control.seeds))  # lock the folder, check a resume: before the build
         algo = nstep_q if s.uses_q_learning else a2c
         self.net = build("dcp", s.net)
         self.env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward,

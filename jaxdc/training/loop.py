@@ -4,15 +4,21 @@
 folder, the seeds, the devices and how the loop is driven) and a
 :class:`RunSpec` (the trainer, its config, the metadata, the evaluation and
 the CSV columns), which :mod:`jaxdc.training.dcp` and :mod:`jaxdc.training.dcg`
-build. Every ``eval_every`` environment steps the loop writes one evaluation
-row per seed (``metrics.csv``, or ``metrics-sSEED.csv`` with several seeds;
-TensorBoard events on request) and an orbax checkpoint of the whole training
+build. A run holds its folder's lock while it uses it and checks a resume
+before it builds its trainer (:mod:`jaxdc.training.guards`). Every
+``eval_every`` environment steps the loop writes one evaluation row per seed
+(``metrics.csv``, or ``metrics-sSEED.csv`` with several seeds; TensorBoard
+events on request) and an orbax checkpoint of the whole training
 state; ``resume`` continues from the latest checkpoint and ends exactly where an
-uninterrupted run does; a loss that is not finite stops the run (status
-``"nan"``) before it is checkpointed, so the last checkpoint stays good.
+uninterrupted run does (``resume_step``: from an earlier one); a loss or a
+training state (parameters, optimiser state) that is not finite stops the run
+(status ``"nan"``) before it is evaluated or checkpointed, and a restored
+checkpoint is checked too, so every checkpoint stays good.
 
 Several seeds run in one vmapped program and the environment batch is split
-over the devices (:func:`spread`, :mod:`jaxdc.agents.parallel`).
+over the devices (:func:`spread`, :mod:`jaxdc.agents.parallel`), also those of
+several processes (:mod:`jaxdc.training.distributed`): then every process steps
+its shard and only process 0 evaluates and writes the run folder.
 """
 
 from __future__ import annotations
@@ -27,13 +33,15 @@ import jax
 import numpy as np
 
 from jaxdc import checkpoint
-from jaxdc import metadata as metadata_format
 from jaxdc.agents import parallel
 from jaxdc.agents.common import RunConfig, Trainer, lr_schedule
 from jaxdc.core import memory
 from jaxdc.io import atomic_write_json, check_output_folder
 from jaxdc.provenance import provenance
+from jaxdc.training import guards
+from jaxdc.training.distributed import is_primary
 from jaxdc.training.fields import SettingError
+from jaxdc.training.lock import FolderLock
 from jaxdc.training.metrics import read_rows, tensorboard_writer, write_rows
 
 #: How updates are driven: one jitted update per Python iteration, or ``n`` updates in one ``lax.scan``.
@@ -51,6 +59,7 @@ class RunControl:
       seeds: the runs' seeds; more than one trains them in one vmapped program.
       devices: devices to split the environment batch over (``None``: all).
       resume: continue from the latest checkpoint in ``out``.
+      resume_step: with ``resume``, continue from this checkpoint instead (the later ones are deleted).
       eval_every: environment steps between evaluations and checkpoints.
       keep: checkpoints to keep.
       layout: one of :data:`LAYOUTS`.
@@ -62,11 +71,16 @@ class RunControl:
     seeds: tuple[int, ...] = (0,)
     devices: int | None = None
     resume: bool = False
+    resume_step: int | None = None
     eval_every: int = 100_000
     keep: int = 3
     layout: str = "loop"
     progress: bool = True
     tensorboard: bool = False
+
+    def __post_init__(self) -> None:
+        if self.resume_step is not None and not self.resume:
+            raise SettingError(f"{{0}} {self.resume_step} applies only with {{1}}", "resume_step", "resume")
 
     @property
     def multi(self) -> bool:
@@ -117,6 +131,14 @@ def spread(trainer: Trainer, control: RunControl, num_envs: int) -> tuple[Traine
     return parallel.parallelize(trainer, mesh, len(control.seeds) if control.multi else None), mesh
 
 
+def csv_paths(control: RunControl) -> list[tuple[str, str]]:
+    """``(metrics CSV, TensorBoard folder)`` per seed of a run."""
+    if not control.multi:
+        return [(os.path.join(control.out, "metrics.csv"), os.path.join(control.out, "tb"))]
+    return [(os.path.join(control.out, f"metrics-s{s}.csv"), os.path.join(control.out, "tb", f"s{s}"))
+            for s in control.seeds]
+
+
 #: A rollout's observations are held as transitions, then as the network's input and its gradient: about this
 #: many copies of ``seeds * num_envs * t_max`` observations are alive at once during an update.
 BATCH_COPIES = 4
@@ -141,8 +163,12 @@ def check_evaluation_fits(run: TrainingRun, evaluate: Callable) -> None:
 class TrainingRun:
     """One training run: :class:`RunControl` and :class:`RunSpec` in, :meth:`train` runs it.
 
-    Each seed gets its own CSV (and TensorBoard folder), one checkpoint holds all seeds.
+    Each seed gets its own CSV (and TensorBoard folder), one checkpoint holds all seeds. A problem's run calls
+    :meth:`claim` before it builds its trainer; :meth:`train` claims the folder itself otherwise, and releases it
+    when it ends, however it ends.
     """
+
+    _lock: FolderLock | None = None
 
     def __init__(self, control: RunControl, spec: RunSpec) -> None:
         if control.layout not in LAYOUTS:
@@ -151,6 +177,11 @@ class TrainingRun:
             tensorboard_writer(None)  # fail before any work if tensorboardX is missing
         self.control, self.spec = control, spec
         self.final_state: Any = None
+
+    def claim(self, control: RunControl, metadata: dict) -> None:
+        """Lock the run folder and check a resume (:func:`jaxdc.training.guards.claim`): a refusal comes at once."""
+        if self._lock is None or not self._lock.held:
+            self._lock = guards.claim(control, metadata, [p for p, _ in csv_paths(control)], primary=is_primary())
 
     # the pieces, by name
     @property
@@ -203,37 +234,42 @@ class TrainingRun:
 
     def paths(self) -> list[tuple[str, str]]:
         """``(metrics CSV, TensorBoard folder)`` per seed."""
-        if not self.multi:
-            return [(os.path.join(self.out, "metrics.csv"), os.path.join(self.out, "tb"))]
-        return [(os.path.join(self.out, f"metrics-s{s}.csv"), os.path.join(self.out, "tb", f"s{s}"))
-                for s in self.seeds]
+        return csv_paths(self.control)
 
     # -- state --------------------------------------------------------------------------
     def initial_state(self) -> Any:
         """A fresh state (writes ``config.json``), or with ``resume`` the latest checkpoint's."""
         check_output_folder(self.out, "output folder")
-        os.makedirs(self.out, exist_ok=True)
+        if is_primary():  # with several processes, only process 0 writes
+            os.makedirs(self.out, exist_ok=True)
         state = self.trainer.init(self.init_key())
         existing = checkpoint.steps(self.ckpt_dir)
         if not self.control.resume:
             if existing:
                 raise SettingError(f"{SettingError.text(self.ckpt_dir)} already holds checkpoints {existing}; "
                                    "pass {0} to continue or choose another {1}", "resume", "out")
-            atomic_write_json(os.path.join(self.out, "config.json"), self.metadata)
-            atomic_write_json(os.path.join(self.out, "provenance.json"), provenance())
+            if is_primary():  # with several processes, only process 0 writes
+                with checkpoint.writing(self.out):
+                    atomic_write_json(os.path.join(self.out, "config.json"), self.metadata)
+                    atomic_write_json(os.path.join(self.out, "provenance.json"), provenance())
             return state
-        if not existing:
-            raise SettingError(f"{{0}}: no checkpoint found in {SettingError.text(self.ckpt_dir)}", "resume")
-        state, _ = checkpoint.restore(self.ckpt_dir, state, self.metadata, upgrade=metadata_format.upgrade)
-        return self.place(state)
+        return self.place(guards.resume(self.control, parallel.host(state), self.metadata, primary=is_primary()))
 
     # -- the loop -----------------------------------------------------------------------
     def train(self) -> dict:
-        """Train to the end (or to a NaN loss); return the last metrics row (of the first seed) with ``"status"``
-        (and ``per_seed``: ``(seed, row)`` pairs).
+        """Train to the end (or to a NaN loss or state); return the last metrics row (of the first seed) with
+        ``"status"`` (and ``per_seed``: ``(seed, row)`` pairs).
 
-        The final training state is kept in ``self.final_state``.
+        The final training state is kept in ``self.final_state``. The run folder is locked meanwhile.
         """
+        self.claim(self.control, self.metadata)
+        try:
+            return self._train()
+        finally:
+            if self._lock is not None:
+                self._lock.release()
+
+    def _train(self) -> dict:
         from tqdm import tqdm
 
         c, cfg, spec = self.control, self.config, self.spec
@@ -245,7 +281,7 @@ class TrainingRun:
         every = max(1, c.eval_every // cfg.batch_size)
         schedule = lr_schedule(cfg)
         bar = tqdm(total=cfg.num_updates * cfg.batch_size, initial=update * cfg.batch_size, unit="step",
-                   unit_scale=True, disable=not c.progress, dynamic_ncols=True)
+                   unit_scale=True, disable=not c.progress or not is_primary(), dynamic_ncols=True)
         last = {"status": "done", "updates": update}
         self.final_state = state
         if c.resume and update >= cfg.num_updates:
@@ -258,16 +294,22 @@ class TrainingRun:
             state, metrics = self._updates(state, n, bar)
             metrics = jax.device_get(metrics)
             wall = time.perf_counter() - t0
-            if not np.all(np.isfinite(metrics["loss"])):
+            whole = parallel.host(state)  # several processes: all take part, each gets the whole state
+            problem = ("the loss became NaN/inf" if not np.all(np.isfinite(metrics["loss"]))
+                       else guards.state_problem(whole))
+            if problem:
                 bar.close()
                 saved = checkpoint.latest_step(self.ckpt_dir)
                 where = (f"The last good checkpoint (update {saved}) is in {self.ckpt_dir}" if saved is not None
                          else "No checkpoint was written yet (the first comes after the first evaluation)")
-                print(f"error: the loss became NaN/inf between updates {update} and {update + n}; stopping. "
-                      f"{where}", file=sys.stderr)
+                print(f"error: {problem} between updates {update} and {update + n}; stopping (NaN). {where}",
+                      file=sys.stderr)
                 return {"status": "nan", "updates": update}
             update += n
-            evals = spec.evaluate(state.params, self.eval_key(update))
+            self.final_state = whole
+            if not is_primary():  # the others only step their environments
+                continue
+            evals = spec.evaluate(whole.params, self.eval_key(update))
             for i, (seed_rows, ev) in enumerate(zip(rows, evals)):
                 # the lambda runs at once (tree_map), with this iteration's i
                 m = jax.tree_util.tree_map(lambda x: x[i], metrics) if self.multi else metrics  # noqa: B023
@@ -287,10 +329,9 @@ class TrainingRun:
             # rows past it, so the CSV and the checkpoints always agree
             for (csv_path, _), seed_rows in zip(paths, rows):
                 write_rows(csv_path, seed_rows, spec.csv_fields)
-            checkpoint.save(self.ckpt_dir, update, state, self.metadata, keep=c.keep)
+            checkpoint.save(self.ckpt_dir, update, whole, self.metadata, keep=c.keep)
             last = dict(rows[0][-1], per_seed=[(seed, r[-1]) for seed, r in zip(self.seeds, rows)])
             bar.set_postfix({spec.postfix_key: " ".join(f"{r[-1][spec.postfix_key]:.3f}" for r in rows)})
-            self.final_state = state
         bar.close()
         for w in writers:
             w.close()

@@ -1,22 +1,68 @@
-"""Where a run's metrics go: one CSV row per evaluation (written atomically) and, optionally, TensorBoard."""
+"""Where a run's metrics go: one CSV row per evaluation (written atomically) and, optionally, TensorBoard.
+
+A resumed run reads its CSV back (:func:`read_rows`); a damaged one (not a
+file, unreadable, no ``updates`` column, a truncated row, a value that is not
+a number, updates out of order) is refused with an error naming the file,
+the line and the column, never dropped: repair the file, or move it away to
+start a new history at the checkpoint.
+"""
 
 from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 from collections.abc import Sequence
 from typing import Any
 
+from jaxdc.checkpoint import writing
 from jaxdc.io import atomic_write
 
 
 def read_rows(path: str, max_updates: int) -> list[dict]:
-    """The CSV rows of ``path`` up to update ``max_updates`` (a resumed run drops rows past its checkpoint)."""
-    if not os.path.exists(path):
+    """The CSV rows of ``path`` up to update ``max_updates`` (a resumed run drops rows past its checkpoint); none
+    if there is no file. A damaged file is a ``ValueError`` naming it, the line and the column."""
+    if not os.path.lexists(path):
         return []
-    with open(path, newline="") as f:
-        return [r for r in csv.DictReader(f) if int(r["updates"]) <= max_updates]
+    fix = "repair it, or move it away to start a new history at the checkpoint"
+    if not os.path.isfile(path):
+        raise ValueError(f"metrics file {path} is not a file ({'a folder' if os.path.isdir(path) else 'broken'}); "
+                         f"{fix}")
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            lines = list(csv.reader(f, strict=True))
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise ValueError(f"metrics file {path} cannot be read ({e}); {fix}") from None
+    if not lines or "updates" not in lines[0] or len(set(lines[0])) != len(lines[0]) or "" in lines[0]:
+        raise ValueError(f"metrics file {path}: line 1 is no header of a metrics CSV (names 'updates' once, and "
+                         f"each column once); {fix}")
+    header, rows, last = lines[0], [], 0
+    for n, values in enumerate(lines[1:], start=2):
+        if not values:
+            continue
+        if len(values) != len(header):
+            raise ValueError(f"metrics file {path}: line {n} has {len(values)} values, the header {len(header)} "
+                             f"(a truncated or damaged row); {fix}")
+        row = dict(zip(header, values))
+        for column, text in row.items():
+            if text != "" and _number(text) is None:
+                raise ValueError(f"metrics file {path}: line {n}, column {column}: {text!r} is not a number; {fix}")
+        update = _number(row["updates"])
+        if update is None or not math.isfinite(update) or update != int(update) or not last < update:
+            raise ValueError(f"metrics file {path}: line {n}, column updates: {row['updates']!r} is not an update "
+                             f"count after {last}; {fix}")
+        last = int(update)
+        if last <= max_updates:
+            rows.append(row)
+    return rows
+
+
+def _number(text: str) -> float | None:
+    try:
+        return float(text)
+    except ValueError:
+        return None
 
 
 def write_rows(path: str, rows: list[dict], fields: Sequence[str]) -> None:
@@ -25,7 +71,8 @@ def write_rows(path: str, rows: list[dict], fields: Sequence[str]) -> None:
     w = csv.DictWriter(buf, fieldnames=fields, restval="", extrasaction="ignore")
     w.writeheader()
     w.writerows(rows)
-    atomic_write(path, buf.getvalue())
+    with writing(path):
+        atomic_write(path, buf.getvalue())
 
 
 def tensorboard_writer(folder: str | None) -> Any:

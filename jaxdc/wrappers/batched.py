@@ -30,7 +30,7 @@ __all__ = ["reset_one", "step_one", "reset", "step", "host_spaces"]
 def reset_one(env: Environment, key: jax.Array, params: Any) -> tuple[jax.Array, jax.Array, Any]:
     """``(key, obs, state)``: one fresh episode."""
     key, sub = jax.random.split(key)
-    obs, state = env.reset_env(sub, params)
+    obs, state = env.reset_env(sub, env.check_params(params))
     return key, obs, state
 
 
@@ -38,14 +38,14 @@ def reset_one(env: Environment, key: jax.Array, params: Any) -> tuple[jax.Array,
 def step_one(env: Environment, key: jax.Array, state: Any, action: jax.Array, params: Any) -> tuple:
     """``(key, obs, state, reward, terminated, truncated, info)``: one transition, without auto-reset."""
     key, sub = jax.random.split(key)
-    return (key,) + tuple(env.step_env(sub, state, action, params))
+    return (key,) + tuple(env.step_env(sub, env.check_state(state), action, env.check_params(params)))
 
 
 @partial(jax.jit, static_argnums=(0, 1))
 def reset(env: Environment, num_envs: int, key: jax.Array, params: Any) -> tuple[jax.Array, jax.Array, Any]:
     """``(key, obs, state)`` of ``num_envs`` fresh episodes (leading axis ``num_envs``)."""
     key, sub = jax.random.split(key)
-    obs, state = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(sub, num_envs), params)
+    obs, state = jax.vmap(env.reset_env, in_axes=(0, None))(jax.random.split(sub, num_envs), env.check_params(params))
     return key, obs, state
 
 

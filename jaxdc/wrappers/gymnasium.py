@@ -105,6 +105,7 @@ class _KeyedReset:
     np_random: np.random.Generator
     _key: jax.Array | None
     _state: Any
+    _ended: str | None = None  # "terminated"/"truncated" once the single env's episode ended, until reset()
     _reset_fn: Callable[..., Any]
     _step_fn: Callable[..., Any]
 
@@ -115,14 +116,23 @@ class _KeyedReset:
 
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start new episodes (see the key scheme above). The adapters take no reset ``options``: any key is
+        refused (``ValueError`` naming it), so a misspelt or unsupported option is never silently ignored."""
         if seed is not None:
             check_seed("seed", seed)
+        if options is not None:
+            if not isinstance(options, dict):
+                raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
+            if options:
+                raise ValueError(f"reset options {sorted(map(str, options))} are not known: the jaxdc adapters take "
+                                 "none (set the environment's parameters with params=...)")
         super().reset(seed=seed)  # type: ignore[misc]  # gymnasium's Env/VectorEnv, next in the adapter's MRO
         if seed is not None:
             self._key = jax.random.PRNGKey(seed)
         elif self._key is None:
             self._key = jax.random.PRNGKey(int(self.np_random.integers(0, 2**31 - 1)))
         self._key, obs, self._state = self._reset_fn(self._key, self.params)
+        self._ended = None
         return np.asarray(obs, dtype=np.float32), {}
 
     def _host_state(self, what: str) -> tuple[Any, Any] | None:
@@ -156,7 +166,7 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
                  outcome_names: Sequence[str] | None = None, observation_space: spaces.Space | None = None) -> None:
         self.render_mode = _check_render_mode(render_mode, env)
         self.env = env
-        self.params = env.default_params if params is None else params
+        self.params = env.default_params if params is None else env.check_params(params)
         self.observation_space, self.action_space = batched.host_spaces(env, self.params, observation_space)
         self.outcome_names = _outcome_names(env, outcome_names)
         self._key = None
@@ -165,12 +175,19 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
         self._step_fn = partial(batched.step_one, env)
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """One step (no auto-reset). After a step that returned ``terminated`` or ``truncated`` the episode is
+        over: a further ``step`` without ``reset()`` raises ``RuntimeError`` (gymnasium's convention) instead
+        of stepping a finished episode."""
         if self._state is None:
             raise RuntimeError("call reset() before step()")
+        if self._ended is not None:
+            raise RuntimeError(f"the episode has ended ({self._ended}); call reset() before step()")
         action = _check_action(action, int(self.env.num_actions))
         out = self._step_fn(self._key, self._state, action, self.params)
         self._key, obs, self._state, reward, terminated, truncated, info = out
         obs, reward, terminated, truncated, info = jax.device_get((obs, reward, terminated, truncated, info))
+        if bool(terminated) or bool(truncated):
+            self._ended = "terminated" if bool(terminated) else "truncated"
         return (
             np.asarray(obs, dtype=np.float32),
             float(reward),
@@ -214,7 +231,7 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
         self.render_mode = _check_render_mode(render_mode, env)
         self.env = env
         self.num_envs = int(num_envs)
-        self.params = env.default_params if params is None else params
+        self.params = env.default_params if params is None else env.check_params(params)
         self.single_observation_space, self.single_action_space = batched.host_spaces(env, self.params,
                                                                                       observation_space)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)

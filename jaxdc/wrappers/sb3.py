@@ -60,7 +60,7 @@ class JaxdcVecEnv(VecEnv):
 
     def __init__(self, env: Environment, num_envs: int, params: Any = None, seed: int | None = 0) -> None:
         self.env = env
-        self.params = env.default_params if params is None else params
+        self.params = env.default_params if params is None else env.check_params(params)
         self.render_mode = None
         n = check_positive_int("num_envs", num_envs)
         obs_space, act_space = batched.host_spaces(env, self.params)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 
 import jax
@@ -142,14 +144,27 @@ def test_benchmark_main_quick(tmp_path, capsys):
 
 
 # -- benchmarks/train_throughput.py ----------------------------------------------------------
-def test_train_throughput_quick(tmp_path, capsys):
+@pytest.fixture(scope="module")
+def quick_throughput(tmp_path_factory):
+    """One --quick run with the PPO-style row asked for: its plain CNN row is what a --quick run alone gives
+    (the --ppo-envs row is appended after it), so the two tests below read one run instead of running the CNN
+    row twice. Returns (result, stdout, out_dir)."""
     from benchmarks import train_throughput as tt
 
-    result = tt.main(["--json", "--quick", "--envs", "2", "--nets", "cnn", "--layouts", "loop", "--no-sb3",
-                      "--out-dir", str(tmp_path)])
-    out = capsys.readouterr().out.strip()
-    assert json.loads(out) == json.loads(json.dumps(result))  # exactly one JSON object on stdout
-    (row,) = result["rows"]
+    out_dir = tmp_path_factory.mktemp("train_throughput")
+    stdout = io.StringIO()
+    with contextlib.redirect_stdout(stdout):
+        result = tt.main(["--json", "--quick", "--envs", "2", "--nets", "cnn", "--layouts", "loop", "--no-sb3",
+                          "--ppo-envs", "2", "--out-dir", str(out_dir)])
+    return result, stdout.getvalue(), out_dir
+
+
+def test_train_throughput_quick(quick_throughput):
+    from benchmarks import train_throughput as tt
+
+    result, out, tmp_path = quick_throughput
+    assert json.loads(out.strip()) == json.loads(json.dumps(result))  # exactly one JSON object on stdout
+    row = result["rows"][0]
     assert (row["impl"], row["layout"], row["num_envs"]) == ("jaxdc cnn", "loop", 2)
     assert row["env_steps"] == 2 * tt.T_MAX and row["steps_per_s"] > 0 and row["gflops"] > 0
     assert result["comparisons"] == [] and "sb3" in result
@@ -170,7 +185,7 @@ def test_train_throughput_partial_rows_record_provenance(tmp_path):
     assert saved["provenance"]["jaxdc_version"] == jaxdc.__version__ and "command" in saved["provenance"]
 
 
-def test_train_throughput_ppo_row(tmp_path, capsys):
+def test_train_throughput_ppo_row(quick_throughput):
     """The PPO-style row: the options of docs/learning.md (4 x 4 Adam steps per update), only when asked for in
     --quick."""
     from benchmarks import train_throughput as tt
@@ -178,9 +193,7 @@ def test_train_throughput_ppo_row(tmp_path, capsys):
     assert tt.parse_args(["--quick"]).ppo_envs == [] and tt.parse_args([]).ppo_envs == [32]
     assert tt.parse_args(["--ppo-envs"]).ppo_envs == []
     assert tt.make_trainer("enn", 2, options=tt.ppo_options()).config.steps_per_update == 16
-    result = tt.main(["--quick", "--envs", "2", "--nets", "cnn", "--layouts", "loop", "--no-sb3", "--ppo-envs", "2",
-                      "--out-dir", str(tmp_path)])
-    capsys.readouterr()
+    result, _, tmp_path = quick_throughput
     assert [(r["impl"], r["num_envs"]) for r in result["rows"]] == [("jaxdc cnn", 2), ("jaxdc enn ppo", 2)]
     assert result["rows"][1]["env_steps"] == 2 * tt.T_MAX and result["config"]["ppo_options"] == {
         "lr": 3e-4, "clip_eps": 0.2, "epochs": 4, "minibatches": 4, "gae_lambda": 0.95, "normalize_advantages": True,

@@ -237,3 +237,47 @@ def test_sigint_exits_130_leaving_nothing(tmp_path):
     assert "Traceback" not in err
     assert err.strip().splitlines() == ["python -m eval.dcg: interrupted"]
     assert _empty(out)
+
+
+# -- an output that is an input -------------------------------------------------------------------------
+def test_render_over_its_checkpoint_refused(capsys, tmp_path, tiny):
+    """A render's picture whose path is a symbolic link to the network's sidecar would overwrite it."""
+    sidecar = tiny[: -len(".msgpack")] + ".json"
+    before = open(sidecar).read()
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "dcg_vnn_patrol_s0.png").symlink_to(sidecar)
+    _refused(capsys, ["render", "--checkpoint", tiny, "--strategy", "patrol", "--out", str(out)],
+             "--out file", "would overwrite the input --checkpoint")
+    assert open(sidecar).read() == before
+
+
+def test_evaluate_over_its_checkpoint_refused(capsys, tmp_path, tiny):
+    sidecar = tiny[: -len(".msgpack")] + ".json"
+    before = open(sidecar).read()
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "eval_vnn_e15_patrol_s0.json").symlink_to(sidecar)
+    _refused(capsys, ["--checkpoint", tiny, "--strategies", "patrol", "--episodes", "2", "--out", str(out)],
+             "--out file", "would overwrite the input --checkpoint")
+    assert open(sidecar).read() == before
+
+
+def test_energies_over_its_checkpoint_refused(capsys, tmp_path, tiny):
+    """``energies`` names its table after the network, known once it is loaded: still refused before any game."""
+    sidecar = tiny[: -len(".msgpack")] + ".json"
+    before = open(sidecar).read()
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "energies_vnn_s0.md").symlink_to(sidecar)
+    _refused(capsys, ["energies", "--checkpoint", tiny, "--energies", "3", "--out", str(out)],
+             "--out file", "would overwrite the input --checkpoint")
+    assert open(sidecar).read() == before
+
+
+def test_figure_over_a_network_of_nets_dir_refused(capsys, tmp_path, tiny):
+    nets = os.path.dirname(tiny)
+    (tmp_path / "img").mkdir()
+    (tmp_path / "img" / "dcg_fig5_6.png").symlink_to(tiny)
+    _refused(capsys, ["figure", "5.6", "--nets-dir", nets, "--out", str(tmp_path / "o"), "--img",
+                      str(tmp_path / "img"), "--cache", str(tmp_path / "c")], "would overwrite the input --nets-dir")

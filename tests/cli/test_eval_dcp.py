@@ -284,7 +284,7 @@ def test_cli_table_with_learned_row_and_incr(tmp_path, capsys):
     ckpt = pretrained.save(tmp_path / "lin", params, {"net": "linear", "problem": "dcp", "grid_size": 8,
                                                       "total_reward": 30, "risk": "high", "energy": [8, 16],
                                                       "max_steps": 1000, "steps": 1, "seed": 3})
-    assert cli.main(["--table", "4.9", "--episodes", "200", "--out", str(tmp_path), "--checkpoint", ckpt]) == 0
+    assert cli.main(["--table", "4.9", "--episodes", "40", "--out", str(tmp_path), "--checkpoint", ckpt]) == 0
     data = json.loads((tmp_path / "table_4.9.json").read_text())
     assert list(data["ours"]) == ["safe_reward", "safe_recharge", "safe_both", "safe_neither", "linear"]
     assert data["learned"]["net"] == "linear" and data["learned"]["seed"] == 3
@@ -305,18 +305,18 @@ def test_cli_table_best_row_is_the_best_shipped_candidate(tmp_path, capsys):
 
     names = {c.name for c in candidates(TABLES["4.7"])}
     assert names == {"enn_ppo_energy16_32"}  # the only beyond-the-thesis ENN trained at energy 16/32
-    assert cli.main(["--table", "4.7", "--episodes", "200", "--out", str(tmp_path)]) == 0
+    assert cli.main(["--table", "4.7", "--episodes", "40", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     data = json.loads((tmp_path / "table_4.7.json").read_text())
     assert list(data["ours"])[-2:] == ["enn", "enn best"] and data["learned"]["row"] == "enn"
     best = data["best"]
     assert best["row"] == "enn best" and best["thesis_row"] == "enn" and best["checkpoint"] == "enn_ppo_energy16_32"
     assert best["differs"] == "the PPO-style option" and best["trained"]["energy"] == [16.0, 32.0]
-    assert data["ours"]["enn best"]["episodes"] == 200
+    assert data["ours"]["enn best"]["episodes"] == 40
     for text in (out, (tmp_path / "table_4.7.md").read_text()):
         assert "| enn best: enn_ppo_energy16_32 | — |" in text
         assert "`enn_ppo_energy16_32` (beyond the thesis: the PPO-style option)" in text
-    assert cli.main(["--table", "4.7", "--episodes", "200", "--out", str(tmp_path), "--no-best"]) == 0
+    assert cli.main(["--table", "4.7", "--episodes", "40", "--out", str(tmp_path), "--no-best"]) == 0
     data = json.loads((tmp_path / "table_4.7.json").read_text())
     assert data["best"] is None and "enn best" not in data["ours"]
 

@@ -256,3 +256,35 @@ def test_dcp_sigint_exits_130_and_leaves_no_partial_set(tmp_path):
     assert "Traceback" not in stderr
     assert stderr.strip().splitlines()[-1] == "python -m eval.dcp: interrupted"
     assert _files(out) in ([], ["table_4.3.json", "table_4.3.md"])
+
+
+# ----------------------------------------------------------------------------- an output that is an input
+
+
+def _copy_shipped(folder, stem):
+    import shutil
+
+    folder.mkdir(exist_ok=True)
+    src = pretrained.shipped("dcp", "enn")
+    shutil.copy(src, folder / f"{stem}.msgpack")
+    shutil.copy(src[: -len(".msgpack")] + ".json", folder / f"{stem}.json")
+    return folder / f"{stem}.msgpack"
+
+
+def test_dcp_table_over_its_checkpoint_sidecar_refused(tmp_path, capsys):
+    """`--table 4.3 --checkpoint D/table_4.3.msgpack --out D` would replace the checkpoint's sidecar with the
+    table's JSON; an --out folder that is a symbolic link to D is refused the same way."""
+    blob = _copy_shipped(tmp_path / "D", "table_4.3")
+    sidecar = (tmp_path / "D" / "table_4.3.json").read_text()
+    for out in (tmp_path / "D", tmp_path / "link"):
+        if out.name == "link":
+            out.symlink_to(tmp_path / "D")
+        refused(cli.main, ["--table", "4.3", "--checkpoint", str(blob), "--out", str(out), "--episodes", "2"],
+                capsys, "--out file", "table_4.3.json", "would overwrite the input --checkpoint")
+    assert (tmp_path / "D" / "table_4.3.json").read_text() == sidecar
+
+
+def test_dcp_generalisation_over_its_checkpoint_refused(tmp_path, capsys):
+    blob = _copy_shipped(tmp_path / "D", "generalisation")
+    refused(cli.main, ["generalisation", "--checkpoint", str(blob), "--out", str(tmp_path / "D")], capsys,
+            "generalisation.json", "would overwrite the input --checkpoint")

@@ -261,3 +261,24 @@ def test_ctrl_c_to_the_process_group_stops_the_worker_processes_quietly(tmp_path
     rc, err = _interrupt_once_working(["--out", str(out), "figure", "3.1", "--graphs", "3", "--nodes", "40",
                                        "--workers", "2"], group=True)
     _check_interrupted(rc, err, out)
+
+
+# ----------------------------------------------------------------------------- an output that is an input
+
+
+def test_plan_draw_over_the_graph_refused(tmp_path, capsys):
+    """`plan --graph D/g.png --draw D/g.png` would replace the graph with the picture; a symbolic link to the graph
+    and the plan's JSON over the graph are refused the same way."""
+    graph = tmp_path / "g.png"
+    graph.write_text(_graph_file(tmp_path).read_text())
+    before = graph.read_text()
+    _refused(["--out", str(tmp_path / "o"), "plan", "--graph", str(graph), "--draw", str(graph)], capsys,
+             "--draw", "would overwrite the input --graph")
+    (tmp_path / "link.png").symlink_to(graph)
+    _refused(["--out", str(tmp_path / "o"), "plan", "--graph", str(graph), "--draw", str(tmp_path / "link.png")],
+             capsys, "--draw", "would overwrite the input --graph")
+    (tmp_path / "o").mkdir()
+    (tmp_path / "o" / "plan_g_gi_pgc.json").symlink_to(graph)  # the plan's JSON, a link to the graph
+    _refused(["--out", str(tmp_path / "o"), "plan", "--graph", str(graph)], capsys, "--out file",
+             "would overwrite the input --graph")
+    assert graph.read_text() == before

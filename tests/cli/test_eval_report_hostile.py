@@ -73,3 +73,28 @@ def test_report_undefined_rpe_is_a_dash(tmp_path, capsys):
     assert report.main(["--results", res, "--out", str(out), "--notes", "none"]) == 0
     page = out.read_text()
     assert "| p | — | 1.00 ± 0.00 | — | — | 0.00 ± 0.00 | — | — |" in page and "nan" not in page.lower()
+
+
+# ----------------------------------------------------------------------------- an output that is an input
+
+
+@pytest.mark.parametrize("link", [False, True])
+def test_report_out_that_is_the_notes_refused(tmp_path, capsys, link):
+    """`--notes N.md --out N.md` (or --out a symbolic link to N.md) would replace the notes with the page."""
+    res = _table(tmp_path, GOOD)
+    notes = tmp_path / "N.md"
+    notes.write_text("my notes\n")
+    out = notes
+    if link:
+        out = tmp_path / "page.md"
+        out.symlink_to(notes)
+    _refused(report.main, ["--results", res, "--notes", str(notes), "--out", str(out)], capsys,
+             "would overwrite the input --notes", "N.md")
+    assert notes.read_text() == "my notes\n"
+
+
+def test_report_out_inside_the_results_refused(tmp_path, capsys):
+    """The page written into the results folder it reads would be read back by the next run."""
+    res = _table(tmp_path, GOOD)
+    _refused(report.main, ["--results", res, "--notes", "none", "--out", res + "/page.md"], capsys,
+             "would overwrite the input --results")

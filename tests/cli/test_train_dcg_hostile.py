@@ -43,3 +43,12 @@ def test_train_dcg_ship_path_is_checked_before_training(tmp_path, capsys):
     refused(train_dcg.main, DCG + ["--out", str(out), "--ship", str(blocker / "net.msgpack")], capsys,
             "--ship", "is a file")
     assert not out.exists()
+
+
+def test_train_dcg_ship_over_the_run_config_refused(tmp_path, capsys):
+    """`--ship RUN/config` writes RUN/config.json as the sidecar: the run's own config.json (which a resume
+    reads) is refused."""
+    out = tmp_path / "run"
+    refused(train_dcg.main, DCG + ["--out", str(out), "--ship", str(out / "config")], capsys,
+            "--ship", "config.json", "would overwrite the input --out")
+    assert not out.exists()

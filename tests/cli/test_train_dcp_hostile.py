@@ -188,3 +188,22 @@ def test_ctrl_c_in_train_dcp_exits_130_and_leaves_a_consistent_run(tmp_path):
     assert steps and updates[: len(updates)] == sorted(updates) and steps[-1] <= updates[-1]
     assert not [n for n in os.listdir(out) if n.startswith(".tmp-")]
     _strict(out / "config.json")
+
+
+# ----------------------------------------------------------------------------- an output that is an input
+
+
+@pytest.mark.parametrize("as_folder", [False, True])
+def test_config_file_in_the_run_folder_refused(tmp_path, capsys, as_folder):
+    """`--config D/config.json --out D` (a fresh run) would overwrite the configuration it reads."""
+    from jaxdc.training.dcp import run_metadata
+
+    settings, _ = train_dcp.settle(train_dcp.build_parser().parse_args([]))
+    folder = tmp_path / "D"
+    folder.mkdir()
+    text = json.dumps(run_metadata(settings, [0]))
+    (folder / "config.json").write_text(text)
+    config = str(folder) if as_folder else str(folder / "config.json")
+    refused(train_dcp.main, ["--config", config, "--out", str(folder), "--no-progress"], capsys,
+            "config.json", "would overwrite the input --config")
+    assert (folder / "config.json").read_text() == text

@@ -58,3 +58,14 @@ def test_save_is_atomic_and_strict(tmp_path, monkeypatch):
         world.save(world.Graph(np.zeros(2), np.full((1, 2), np.nan), np.ones(1), 0.99, 1.0), path)
     assert path.read_bytes() == before
     _strict(before.decode())
+
+
+def test_deeply_nested_graph_file_refused(tmp_path):
+    """100,000 nested brackets ended in a RecursionError traceback; the lenient read refuses them, naming the
+    file (as an unreadable path or a folder)."""
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(ValueError, match="deep.json: nested too deeply"):
+        world.load(str(path))
+    with pytest.raises(ValueError, match="cannot read it"):
+        world.load(str(tmp_path))

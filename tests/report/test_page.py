@@ -27,7 +27,8 @@ def test_report_builds_page_with_commands_and_se(tmp_path):
 
 
 def test_report_without_results_says_what_to_run(tmp_path, capsys):
-    assert report.main(["--results", str(tmp_path), "--out", str(tmp_path / "r.md")]) == 2
+    (tmp_path / "results").mkdir()  # empty; the page goes outside it (an output inside an input folder is refused)
+    assert report.main(["--results", str(tmp_path / "results"), "--out", str(tmp_path / "r.md")]) == 2
     assert "python -m eval.dcp --table" in capsys.readouterr().err
     assert not (tmp_path / "r.md").exists()
 

@@ -21,7 +21,7 @@ import hashlib
 import json
 import os
 
-from jaxdc.io import atomic_write_json
+from jaxdc.io import atomic_write_json, read_json
 from jaxdc.provenance import provenance
 
 #: The key of a stored file's provenance, beside the result's own fields (left out by :meth:`EvaluationCache.load`).
@@ -51,8 +51,9 @@ class EvaluationCache:
         path = self.path(blob, settings)
         if not self.reuse or not os.path.isfile(path):
             return None
-        with open(path) as f:
-            stored = json.load(f)
+        stored = read_json(path, "delete it (or pass --no-cache) to evaluate again")
+        if not isinstance(stored, dict):
+            raise ValueError(f"{path}: a cached result must be a JSON object; delete it (or pass --no-cache)")
         stored.pop(PROVENANCE_KEY, None)
         return stored
 

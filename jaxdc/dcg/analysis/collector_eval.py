@@ -65,6 +65,8 @@ def evaluate(learned, *, episodes, seed, energy=None, strategies=None, reward_ar
                       "energy": unlimited_to_json(float(params.max_energy)), "max_steps": int(params.max_steps),
                       "strategies": list(env.strategies), "reward_area": reward_area,
                       "history": learned.setting()["history"], "trained_steps": learned.steps}
+    if params.energy_range is not None:  # a range network in its training range (beyond the thesis)
+        out["setting"]["energy_range"] = [float(x) for x in params.energy_range]
     out["seed"], out["greedy"] = seed, bool(greedy)
     if b is not None:
         out["bound"] = {"total": b["total"], "per_strategy": b["per_strategy"]}

@@ -12,7 +12,6 @@ sampled full-information bound of the standard game (:func:`game_bound`,
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 from typing import Callable
 
@@ -24,7 +23,7 @@ from jaxdc.dcg.analysis.cache import EvaluationCache
 from jaxdc.dcg.analysis.collector_eval import ExactBounds, evaluate, fraction
 from jaxdc.dcg.analysis.figures import Experiment, select
 from jaxdc.dcg.exact.many_items import sampled_bound
-from jaxdc.io import unlimited_to_json
+from jaxdc.io import read_json, unlimited_to_json
 
 
 @dataclasses.dataclass(frozen=True)
@@ -145,6 +144,7 @@ def stored_standard(out: str) -> dict | None:
     path = os.path.join(out, "figure_standard.json")
     if not os.path.isfile(path):
         return None
-    with open(path) as f:
-        data = json.load(f)
+    data = read_json(path, "rerun python -m eval.dcg figure 5.6")
+    if not isinstance(data, dict) or not isinstance(data.get("results"), dict):
+        raise ValueError(f"{path}: not a figure file of python -m eval.dcg (no 'results' object)")
     return {None: data["results"].get("all", {})}

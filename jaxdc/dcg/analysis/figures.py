@@ -99,8 +99,8 @@ def _order(meta: dict):
 
 
 def _trained(meta: dict, strategies, energy: float, five_million: bool, strong: str | None = None) -> bool:
-    """Whether ``meta`` describes a network trained as the thesis did: on the standard game (no reward area,
-    which is beyond the thesis), with ``strategies``, at ``energy``, for 1M or 5M steps.
+    """Whether ``meta`` describes a network trained as the thesis did: on the standard game (no reward area or
+    energy range, which are beyond the thesis), with ``strategies``, at ``energy``, for 1M or 5M steps.
 
     A strong network (:func:`is_strong`) qualifies only where ``strong`` asks for it: ``"1m"`` one trained
     at most 1M steps, ``"final"`` one trained longer (the recipe's full budget)."""
@@ -109,7 +109,7 @@ def _trained(meta: dict, strategies, energy: float, five_million: bool, strong: 
         steps_ok = strong is not None and (steps <= STEPS_1M) == (strong == "1m")
     else:
         steps_ok = (steps >= STEPS_5M) == five_million
-    return (steps_ok and meta.get("reward_area") is None
+    return (steps_ok and meta.get("reward_area") is None and meta.get("energy_range") is None  # one energy
             and tuple(meta.get("strategies", STANDARD_STRATEGIES)) == tuple(strategies)
             and float(meta.get("energy", 15.0)) == float(energy))
 

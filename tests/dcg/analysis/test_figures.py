@@ -69,3 +69,12 @@ def test_family_splits_faithful_and_strong_bars():
 
 def test_the_per_strategy_chart_joins_the_one_group_experiments():
     assert {n for n, e in EXPERIMENTS.items() if e.per_strategy_chart} == {"standard", "standard_5m", "double_blind"}
+
+
+def test_a_network_trained_over_a_range_of_energies_is_no_thesis_bar():
+    """A network over energies 8..25 (beyond the thesis) records energy 15 too; it never stands for the thesis'
+    energy-15 (or any) network."""
+    pool = {"a_omn_general": dict(_meta("omn_conn"), energy_range=[8.0, 25.0], observation="general"),
+            "omn_conn": _meta("omn_conn")}
+    for exp, group in ((EXPERIMENTS["standard"], None), (EXPERIMENTS["energy"], 15.0)):
+        assert [e.name for e in select(pool, exp, group) if e.label == "OMN+CoNN"] == ["omn_conn"]

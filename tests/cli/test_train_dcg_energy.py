@@ -1,0 +1,89 @@
+"""train.dcg over a range of maximum energies (beyond the thesis, docs/generalisation.md): a tiny run with
+--energy-range and the general observation, recorded so --config reproduces it, then played at fixed energies
+by the loader and by ``eval.dcg energies``."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from jaxdc.cli import eval_dcg
+from jaxdc.cli import train_dcg as cli
+from jaxdc.cli.train_common import parse_with_config
+from jaxdc.dcg import learned as learned_lib
+from jaxdc.training import dcg, presets
+from tests.support.cli_checks import refused
+
+# 3x3 grid, 3 items, the restricted chaser, VNN (no history planes); one update of 16 envs x 8 steps.
+TINY = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies", "restricted", "--max-steps", "20",
+        "--energy-range", "3", "8", "--observation", "general", "--steps", "128", "--envs", "16", "--t-max", "8",
+        "--eval-every", "128", "--eval-episodes", "16", "--no-progress"]
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = str(tmp_path_factory.mktemp("runs") / "range")
+    assert cli.main(TINY + ["--out", out]) == 0
+    return out
+
+
+def _settle(argv):
+    return cli.settle(parse_with_config(cli.build_parser(), argv, "dcg", dcg.settings_from_metadata))
+
+
+def test_the_run_records_the_range_and_config_reproduces_it(run_dir):
+    with open(os.path.join(run_dir, "config.json")) as f:
+        meta = json.load(f)
+    assert meta["energy_range"] == [3.0, 8.0] and meta["observation"] == "general"
+    settings, _ = _settle(TINY + ["--out", run_dir])
+    again, _ = _settle(["--config", os.path.join(run_dir, "config.json"), "--eval-episodes", "16"])
+    assert again == settings and again.energy_range == (3.0, 8.0) and again.observation == "general"
+    # the faithful default writes neither key
+    plain, _ = _settle(["--net", "vnn"])
+    assert "energy_range" not in dcg.run_metadata(plain, dcg.DCG(), [0]) and plain.observation == "thesis"
+
+
+def test_the_network_plays_its_range_or_any_fixed_energy(run_dir):
+    learned = learned_lib.load(run_dir)
+    assert learned.net.state_channels == 3 and "energies 3-8 (general observation)" in learned.describe()
+    env, params = learned.game()
+    assert env.observation == "general" and params.energy_range.tolist() == [3.0, 8.0]
+    env, params = learned.game(energy=5)
+    assert params.energy_range is None and float(params.max_energy) == 5.0
+    assert env.observation_shape() == (3, 3, 3)
+
+
+def test_eval_energies_writes_the_table_per_energy(run_dir, tmp_path, capsys):
+    out = str(tmp_path / "res")
+    argv = ["energies", "--checkpoint", run_dir, "--energies", "3", "8", "9", "--episodes", "32",
+            "--bound-episodes", "4", "--no-specialists", "--json", "--out", out]
+    assert eval_dcg.main(argv) == 0
+    table = json.loads(capsys.readouterr().out)
+    assert [r["energy"] for r in table["rows"]] == [3.0, 8.0, 9.0]
+    assert [r["in_range"] for r in table["rows"]] == [True, True, False]
+    for r in table["rows"]:
+        assert r["bound"]["mean"] > 0 and r["specialist"] is None
+        np.testing.assert_allclose(r["ratio"], r["reward"]["mean"] / r["bound"]["mean"])
+    assert sorted(os.listdir(out)) == ["energies_vnn_s0.json", "energies_vnn_s0.md"]
+    assert "| 9 | no |" in open(os.path.join(out, "energies_vnn_s0.md")).read()
+
+
+def test_the_named_recipe_settles():
+    settings, _ = _settle(["--config", "omn_conn_general"])
+    assert settings.energy_range == (8.0, 25.0) and settings.observation == "general" and settings.net == "omn_conn"
+    assert presets.EVERY["omn_conn_general"].flags()[:2] == ["--net", "omn_conn"]
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--energy-range", "8", "3"], "energy_range: low (8) must not exceed high (3)"),
+    (["--energy-range", "8.5", "12"], "energy_range low must be a whole number, got 8.5"),
+    (["--energy-range", "0", "12"], "--energy-range"),
+    (["--energy-range", "inf", "12"], "--energy-range"),
+    (["--energy-range", "8"], "--energy-range"),
+    (["--observation", "budget"], "--observation"),
+])
+def test_bad_ranges_and_observations_are_usage_errors(argv, match, capsys, tmp_path):
+    refused(cli.main, ["--net", "vnn", "--out", str(tmp_path / "x")] + argv, capsys, match)
