@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 from jaxdc.core.validate import is_int
@@ -137,3 +138,22 @@ def check_run(meta: object, problem: str, where: str) -> dict:
 def algorithm_config(net: str, algorithm: dict) -> Any:
     """The ``QConfig`` (n-step Q networks) or ``A2CConfig`` of ``net`` built from the ``algorithm`` record."""
     return _config_class(net)(**algorithm)
+
+
+def recorded_pair(value: Any, key: str, where: str, meaning: str = "") -> tuple:
+    """``value``, the pair ``key`` of a run's metadata (stored as a JSON list), as a tuple; otherwise a
+    ``ValueError`` naming ``where`` (``meaning``, e.g. ``" [low, high]"``, ends the message)."""
+    if not isinstance(value, list) or len(value) != 2:
+        raise ValueError(f"{where}: {key}={value!r} must be a pair{meaning}")
+    return tuple(value)
+
+
+def run_settings(make: Callable[..., Any], meta: dict, where: str, **setting: Any) -> tuple[Any, tuple[int, ...]]:
+    """``(settings, seeds)`` of a checked run's metadata ``meta`` (:func:`check_run`): ``make(net=...,
+    config=..., **setting)`` with the config of its ``algorithm`` record, and its seeds; a value the settings
+    refuse is a ``ValueError`` naming ``where``."""
+    try:
+        settings = make(net=meta["net"], config=algorithm_config(meta["net"], meta["algorithm"]), **setting)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{where}: {e}") from None
+    return settings, tuple(meta["seeds"]) if meta.get("seeds") else (meta.get("seed", 0),)

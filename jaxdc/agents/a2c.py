@@ -52,6 +52,7 @@ from jaxdc.agents.common import (
     Trainer,
     Transition,
     check_network,
+    first_batch,
     heuristics_fn,
     huber,
     lr_schedule,
@@ -265,10 +266,7 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
     needs_old_policy = config.gae_lambda < 1 or config.clip_eps is not None or config.normalize_advantages
 
     def init(key) -> TrainState:
-        k_net, k_env, k_train = jax.random.split(key, 3)
-        obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(
-            jax.random.split(k_env, config.num_envs), env_params)
-        params = net.init(k_net, obs, heuristics(env_state))
+        params, obs, env_state, k_train = first_batch(key, env, env_params, net, heuristics, config.num_envs)
         return TrainState(params, tx.init(params), env_state, obs, k_train, jnp.int32(0))
 
     def env_step(params, carry, _):
@@ -341,10 +339,4 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
                        reward_per_step=jnp.mean(traj.reward))
         return TrainState(params, opt_state, env_state, obs, key, ts.update + 1), metrics
 
-    def run(ts: TrainState, n: int):
-        return jax.lax.scan(lambda s, _: update(s), ts, None, n)
-
-    def train(key):
-        return run(init(key), config.num_updates)
-
-    return Trainer(init, jax.jit(update), jax.jit(run, static_argnums=1), jax.jit(train), config)
+    return Trainer.of(init, update, config)

@@ -13,7 +13,8 @@ state, and take Adam steps with the learning rate annealed linearly to 0 over
 * :func:`lr_schedule` and :func:`make_adam`: the annealed Adam;
 * :class:`Network`: the attributes a trainer reads from a network;
   :func:`heuristics_fn`, the heuristics hook;
-* :class:`Trainer`: what ``make_train`` returns.
+* :class:`Trainer`: what ``make_train`` returns (:meth:`Trainer.of` builds it); :func:`first_batch`, a run's
+  start.
 """
 
 from __future__ import annotations
@@ -145,6 +146,19 @@ class Trainer(NamedTuple):
     train: Callable  # key -> (state, metrics [num_updates])
     config: RunConfig
 
+    @classmethod
+    def of(cls, init: Callable, update: Callable, config: RunConfig) -> Trainer:
+        """The trainer of ``init`` and one ``update``: ``run(state, n)`` scans ``n`` updates, ``train(key)`` runs
+        ``config.num_updates`` of them from ``init(key)``; all but ``init`` jitted."""
+
+        def run(ts, n: int):
+            return jax.lax.scan(lambda s, _: update(s), ts, None, n)
+
+        def train(key):
+            return run(init(key), config.num_updates)
+
+        return cls(init, jax.jit(update), jax.jit(run, static_argnums=1), jax.jit(train), config)
+
 
 def nstep_returns(rewards: jax.Array, terminated: jax.Array, truncated: jax.Array, final_values: jax.Array,
                   last_value: jax.Array, gamma: Any, values: jax.Array | None = None, lam: float = 1.0) -> jax.Array:
@@ -256,6 +270,16 @@ def heuristics_fn(net: Network, heuristics: Callable | None) -> Callable:
         return jnp.zeros((b, 1, net.num_actions), jnp.float32)
 
     return zeros
+
+
+def first_batch(key: jax.Array, env: Any, env_params: Any, net: Network, heuristics: Callable,
+                num_envs: int) -> tuple[Any, jax.Array, Any, jax.Array]:
+    """A run's start: ``num_envs`` environments reset and the network's parameters initialised on their first
+    observations, ``(params, obs, env_state, key)`` with ``key`` the run's own key (``key`` split three ways)."""
+    k_net, k_env, k_train = jax.random.split(key, 3)
+    obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(k_env, num_envs), env_params)
+    params = net.init(k_net, obs, heuristics(env_state))
+    return params, obs, env_state, k_train
 
 
 def masked_logits(logits: jax.Array, allowed: jax.Array | None) -> jax.Array:

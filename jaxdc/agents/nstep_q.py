@@ -36,6 +36,7 @@ from jaxdc.agents.common import (
     Trainer,
     Transition,
     check_network,
+    first_batch,
     heuristics_fn,
     huber,
     make_optimizer_from,
@@ -141,9 +142,7 @@ def make_train(config: QConfig, env: Environment, env_params: Any, net: Network,
     b = config.num_envs
 
     def init(key) -> QTrainState:
-        k_net, k_env, k_train = jax.random.split(key, 3)
-        obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(k_env, b), env_params)
-        params = net.init(k_net, obs, heuristics(env_state))
+        params, obs, env_state, k_train = first_batch(key, env, env_params, net, heuristics, b)
         return QTrainState(params, params, tx.init(params), env_state, obs, k_train, jnp.int32(0))
 
     def max_target_q(target_params, obs, env_state):
@@ -187,10 +186,4 @@ def make_train(config: QConfig, env: Environment, env_params: Any, net: Network,
                        reward_per_step=jnp.mean(traj.reward), epsilon=config.epsilon(ts.update))
         return QTrainState(params, target, opt_state, env_state, obs, key, n), metrics
 
-    def run(ts, n: int):
-        return jax.lax.scan(lambda s, _: update(s), ts, None, n)
-
-    def train(key):
-        return run(init(key), config.num_updates)
-
-    return Trainer(init, jax.jit(update), jax.jit(run, static_argnums=1), jax.jit(train), config)
+    return Trainer.of(init, update, config)

@@ -291,6 +291,16 @@ def fmt(x: float | None, spec: str = ".3f") -> str:
     return "n/a" if x is None else format(x, spec)
 
 
+def report_done(result: dict, details: Callable[[dict], str]) -> int:
+    """After a run: :data:`EXIT_NAN` if a NaN loss stopped it, else 0 after one ``done:`` line per seed, with
+    ``details(result)`` of that seed in parentheses."""
+    if result["status"] == "nan":
+        return EXIT_NAN
+    for run_seed, r in result.get("per_seed", []):
+        print(f"done: seed {run_seed}, {r['env_steps']} steps, eval reward {fmt(r['eval_reward'])} ({details(r)})")
+    return 0
+
+
 def train_from_command_line(parser: argparse.ArgumentParser, argv: list[str] | None, problem: str,
                             from_metadata: Any, settle: Callable[[argparse.Namespace], tuple[Any, RunControl]],
                             make_run: Callable[[Any, RunControl], Any],

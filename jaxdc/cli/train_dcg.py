@@ -51,12 +51,13 @@ from jaxdc import pretrained
 from jaxdc.agents.a2c import A2CConfig
 from jaxdc.cli.args import integer, nonnegative_float, positive_float, positive_int
 from jaxdc.cli.train_common import (
-    EXIT_NAN,
+    EXIT_NAN,  # noqa: F401  (re-exported: the exit status after a NaN loss, as tests and scripts read it)
     a2c_settings,
     add_a2c_arguments,
     add_config_arguments,
     config_file,
     fmt,
+    report_done,
     run_control,
     run_outputs,
     seed_tag,
@@ -146,6 +147,11 @@ def ship_path(args) -> str:
     return args.ship or os.path.join(pretrained.ASSETS, "dcg", f"{args.net}.msgpack")
 
 
+def _done_details(r: dict) -> str:
+    acc = r.get("eval_opponent_accuracy")
+    return f"RPE {fmt(r['eval_rpe'])}" + (f", opponent accuracy {fmt(acc)}" if acc is not None else "")
+
+
 def main(argv=None) -> int:
     """Train (and ship); the exit status (0, or :data:`~jaxdc.cli.train_common.EXIT_NAN` after a NaN loss).
 
@@ -166,12 +172,9 @@ def main(argv=None) -> int:
     if trained is None:  # --list-configs
         return 0
     args, run, result = trained
-    if result["status"] == "nan":
-        return EXIT_NAN
-    for seed, r in result.get("per_seed", []):
-        acc = r.get("eval_opponent_accuracy")
-        print(f"done: seed {seed}, {r['env_steps']} steps, eval reward {fmt(r['eval_reward'])} "
-              f"(RPE {fmt(r['eval_rpe'])}" + (f", opponent accuracy {fmt(acc)})" if acc is not None else ")"))
+    status = report_done(result, _done_details)
+    if status:
+        return status
     if args.ship is not None and is_primary():  # with several processes, process 0 ships
         argv_text = sys.argv[1:] if argv is None else list(argv)
         try:

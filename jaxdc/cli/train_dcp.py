@@ -34,12 +34,13 @@ from jaxdc.agents.nstep_q import EVAL_EPSILON, QConfig
 from jaxdc.cli.args import integer, positive_int, unit_interval
 from jaxdc.cli.train_common import (
     A2C_FLAGS,
-    EXIT_NAN,
+    EXIT_NAN,  # noqa: F401  (re-exported: the exit status after a NaN loss, as tests and scripts read it)
     a2c_settings,
     add_a2c_arguments,
     add_config_arguments,
     fmt,
     learner_options_set,
+    report_done,
     run_control,
     seed_tag,
     train_from_command_line,
@@ -136,10 +137,4 @@ def main(argv=None) -> int:
     trained = train_from_command_line(build_parser(), argv, "dcp", settings_from_metadata, settle, DCPRun)
     if trained is None:  # --list-configs
         return 0
-    _, _, result = trained
-    if result["status"] == "nan":
-        return EXIT_NAN
-    for seed, r in result.get("per_seed", []):
-        print(f"done: seed {seed}, {r['env_steps']} steps, eval reward {fmt(r['eval_reward'])} "
-              f"(energy {fmt(r['eval_energy'], '.2f')}, RPE {fmt(r['eval_rpe'])})")
-    return 0
+    return report_done(trained[2], lambda r: f"energy {fmt(r['eval_energy'], '.2f')}, RPE {fmt(r['eval_rpe'])}")

@@ -30,7 +30,7 @@ from jaxdc.core.stats import episode_summary
 from jaxdc.core.validate import check_choice
 from jaxdc.dcg.env import DCG, MIN_RANGE_ENERGY, OBSERVATIONS, OUTCOMES
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
-from jaxdc.metadata import FORMAT, algorithm_config, check_run
+from jaxdc.metadata import FORMAT, check_run, recorded_pair, run_settings
 from jaxdc.nets import DCG_NETS, build
 from jaxdc.training.fields import SettingError
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
@@ -148,9 +148,7 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCGSettings, tuple
     setting = {k: meta[k] for k in ("alpha", "energy", "grid_size", "total_reward", "max_steps", "reward_area",
                                     "min_reward_area", "observation") if meta.get(k) is not None}
     if meta.get("energy_range") is not None:
-        if not isinstance(meta["energy_range"], list) or len(meta["energy_range"]) != 2:
-            raise ValueError(f"{where}: energy_range={meta['energy_range']!r} must be a pair [low, high]")
-        setting["energy_range"] = tuple(meta["energy_range"])
+        setting["energy_range"] = recorded_pair(meta["energy_range"], "energy_range", where, " [low, high]")
     if meta.get("history"):
         setting["history"] = meta["history"]
     if "strategies" in meta:
@@ -158,11 +156,7 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCGSettings, tuple
         if not isinstance(strategies, list) or not all(isinstance(x, str) for x in strategies):
             raise ValueError(f"{where}: strategies={strategies!r} must be a list of strategy names")
         setting["strategies"] = tuple(strategies)
-    try:
-        settings = DCGSettings(net=meta["net"], config=algorithm_config(meta["net"], meta["algorithm"]), **setting)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"{where}: {e}") from None
-    return settings, tuple(meta["seeds"]) if meta.get("seeds") else (meta.get("seed", 0),)
+    return run_settings(DCGSettings, meta, where, **setting)
 
 
 class DCGRun(TrainingRun):

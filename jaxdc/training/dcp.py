@@ -24,7 +24,7 @@ from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import instances, navigators
 from jaxdc.dcp.evaluate import summarize
-from jaxdc.metadata import FORMAT, algorithm_config, check_run
+from jaxdc.metadata import FORMAT, check_run, recorded_pair, run_settings
 from jaxdc.nets import DCP_NETS, NSTEP_Q, build
 from jaxdc.training.instances import check_instance_settings, instance_metadata, training_params
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
@@ -111,22 +111,13 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCPSettings, tuple
     retrains it. The evaluation (``eval_episodes``, ``greedy_eval``, ``eval_epsilon``) is not recorded and keeps
     its defaults. Each failure is a ``ValueError`` naming ``where`` (:func:`jaxdc.metadata.check_run`)."""
     meta = check_run(meta, "dcp", where)
-    energy = meta.get("energy", list(DCPSettings.energy))
-    if not isinstance(energy, list) or len(energy) != 2:
-        raise ValueError(f"{where}: energy={energy!r} must be a pair [initial, maximum]")
+    energy = recorded_pair(meta.get("energy", list(DCPSettings.energy)), "energy", where, " [initial, maximum]")
     setting = {k: meta[k] for k in ("risk", "grid_size", "total_reward", "min_total_reward", "max_steps",
                                     "observation", "risk_maps", "init_fraction") if meta.get(k) is not None}
     for k in ("map_seeds", "energy_range"):  # pairs, stored as lists
         if meta.get(k) is not None:
-            if not isinstance(meta[k], list) or len(meta[k]) != 2:
-                raise ValueError(f"{where}: {k}={meta[k]!r} must be a pair")
-            setting[k] = tuple(meta[k])
-    try:
-        settings = DCPSettings(net=meta["net"], config=algorithm_config(meta["net"], meta["algorithm"]),
-                               energy=(energy[0], energy[1]), **setting)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"{where}: {e}") from None
-    return settings, tuple(meta["seeds"]) if meta.get("seeds") else (meta.get("seed", 0),)
+            setting[k] = recorded_pair(meta[k], k, where)
+    return run_settings(DCPSettings, meta, where, energy=energy, **setting)
 
 
 class DCPRun(TrainingRun):

@@ -240,38 +240,21 @@ def test_sigint_exits_130_leaving_nothing(tmp_path):
 
 
 # -- an output that is an input -------------------------------------------------------------------------
-def test_render_over_its_checkpoint_refused(capsys, tmp_path, tiny):
-    """A render's picture whose path is a symbolic link to the network's sidecar would overwrite it."""
+@pytest.mark.parametrize("output, argv", [
+    # a render's picture whose path is a symbolic link to the network's sidecar would overwrite it
+    ("dcg_vnn_patrol_s0.png", ["render", "--strategy", "patrol"]),
+    ("eval_vnn_e15_patrol_s0.json", ["--strategies", "patrol", "--episodes", "2"]),
+    # ``energies`` names its table after the network, known once it is loaded: still refused before any game
+    ("energies_vnn_s0.md", ["energies", "--energies", "3"]),
+])
+def test_an_output_over_its_checkpoint_refused(capsys, tmp_path, tiny, output, argv):
     sidecar = tiny[: -len(".msgpack")] + ".json"
     before = open(sidecar).read()
     out = tmp_path / "o"
     out.mkdir()
-    (out / "dcg_vnn_patrol_s0.png").symlink_to(sidecar)
-    _refused(capsys, ["render", "--checkpoint", tiny, "--strategy", "patrol", "--out", str(out)],
-             "--out file", "would overwrite the input --checkpoint")
-    assert open(sidecar).read() == before
-
-
-def test_evaluate_over_its_checkpoint_refused(capsys, tmp_path, tiny):
-    sidecar = tiny[: -len(".msgpack")] + ".json"
-    before = open(sidecar).read()
-    out = tmp_path / "o"
-    out.mkdir()
-    (out / "eval_vnn_e15_patrol_s0.json").symlink_to(sidecar)
-    _refused(capsys, ["--checkpoint", tiny, "--strategies", "patrol", "--episodes", "2", "--out", str(out)],
-             "--out file", "would overwrite the input --checkpoint")
-    assert open(sidecar).read() == before
-
-
-def test_energies_over_its_checkpoint_refused(capsys, tmp_path, tiny):
-    """``energies`` names its table after the network, known once it is loaded: still refused before any game."""
-    sidecar = tiny[: -len(".msgpack")] + ".json"
-    before = open(sidecar).read()
-    out = tmp_path / "o"
-    out.mkdir()
-    (out / "energies_vnn_s0.md").symlink_to(sidecar)
-    _refused(capsys, ["energies", "--checkpoint", tiny, "--energies", "3", "--out", str(out)],
-             "--out file", "would overwrite the input --checkpoint")
+    (out / output).symlink_to(sidecar)
+    _refused(capsys, argv + ["--checkpoint", tiny, "--out", str(out)], "--out file",
+             "would overwrite the input --checkpoint")
     assert open(sidecar).read() == before
 
 

@@ -111,31 +111,6 @@ def test_reward_area_training_is_recorded_and_replayed(tmp_path):
     assert (env.reward_area, env.min_reward_area) == (2, None)
 
 
-@pytest.mark.parametrize("extra, match", [
-    (["--net", "dqn"], "invalid choice"),
-    (["--strategies", "patrol,sneaky"], "unknown strategy 'sneaky'"),
-    (["--strategies", ""], "strategies must not be empty"),
-    (["--strategies", " , "], "strategies must not be empty"),
-    (["--grid-size", "1"], "--grid-size must be an integer >= 2, got 1"),
-    (["--energy", "0"], "--energy must be > 0"),
-    (["--energy", "-3"], "--energy must be > 0"),
-    (["--net", "emnn", "--history", "0"], "--history must be an integer >= 1, got 0"),
-    (["--net", "omn_conn", "--history", "-1"], "--history must be an integer >= 1, got -1"),
-    (["--net", "imnn", "--history", "x"], "--history must be an integer"),
-    (["--alpha", "-0.001"], "--alpha must be >= 0"),
-    (["--net", "emnn", "--omn-lr", "0.001"], "--omn-lr sets OMN's learning rate and applies to --net omn_conn only"),
-    (["--net", "omn_conn", "--omn-lr", "0"], "--omn-lr must be > 0"),
-    (["--steps", "16"], "total_steps (16) must be >= num_envs * t_max (128)"),
-    (["--reward-area", "0"], "--reward-area must be an integer >= 1"),
-    (["--reward-area", "4"], "reward_area must be between 1 and grid_size (3), got 4"),
-    (["--min-reward-area", "1"], "min_reward_area=1 needs a reward_area"),
-    (["--reward-area", "2", "--min-reward-area", "3"], "min_reward_area must be between 1 and reward_area (2), got 3"),
-    (["--reward-area", "2", "--min-reward-area", "0"], "--min-reward-area must be an integer >= 1"),
-])
-def test_bad_arguments(capsys, tmp_path, extra, match):
-    _fails(capsys, TINY + ["--out", str(tmp_path / "x")] + extra, match)
-
-
 def test_resume_refuses_another_net(finished_run, capsys):
     _fails(capsys, TINY + ["--out", finished_run, "--resume", "--net", "imnn"], "net: checkpoint has 'vnn'")
     _fails(capsys, TINY + ["--out", finished_run], "already holds checkpoints")

@@ -15,7 +15,7 @@ from jaxdc.cli import train_dcg as cli
 from jaxdc.cli.train_common import parse_with_config
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.training import dcg, presets
-from tests.support.cli_checks import refused
+from tests.support.cli_checks import refused, tiny_run
 
 # 3x3 grid, 3 items, the restricted chaser, VNN (no history planes); one update of 16 envs x 8 steps.
 TINY = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies", "restricted", "--max-steps", "20",
@@ -25,9 +25,7 @@ TINY = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):
-    out = str(tmp_path_factory.mktemp("runs") / "range")
-    assert cli.main(TINY + ["--out", out]) == 0
-    return out
+    return tiny_run(cli.main, TINY, tmp_path_factory)
 
 
 def _settle(argv):

@@ -74,27 +74,6 @@ def test_nan_loss_stops_and_keeps_the_last_good_checkpoint(finished_run, tmp_pat
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
 
 
-@pytest.mark.parametrize("extra, match", [
-    (["--net", "dqn"], "invalid choice"),
-    (["--steps", "0"], "--steps must be an integer >= 1"),
-    (["--steps", "-5"], "--steps must be an integer >= 1"),
-    (["--lr", "0"], "--lr must be > 0"),
-    (["--lr", "nan"], "--lr must be > 0"),
-    (["--steps", "16"], "total_steps (16) must be >= num_envs * t_max (32)"),
-    (["--energy", "9", "8"], "exceeds the maximum"),
-    (["--min-total-reward", "7"], "--min-total-reward (7) exceeds --total-reward (6)"),
-    (["--min-total-reward", "0"], "--min-total-reward must be an integer >= 1"),
-    (["--seeds", "0,x"], "--seeds must be comma-separated ints"),
-    (["--seeds", "1,1"], "--seeds must be distinct"),
-    (["--devices", "64"], "--devices 64: JAX sees only"),
-    (["--clip-eps", "1.5"], "--clip-eps must be in (0, 1)"),
-    (["--gae-lambda", "-0.1"], "--gae-lambda must be in [0, 1]"),
-    (["--minibatches", "3"], "minibatches (3) must divide num_envs * t_max (32)"),
-])
-def test_bad_arguments(capsys, tmp_path, extra, match):
-    _fails(capsys, TINY + ["--out", str(tmp_path / "x")] + extra, match)
-
-
 def test_bad_folders_and_checkpoints(finished_run, tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")

@@ -23,7 +23,7 @@ import pytest
 from jaxdc import checkpoint
 from jaxdc.agents import a2c
 from jaxdc.cli import train_dcg, train_dcp
-from tests.support.cli_checks import ROOT, checkout_env, refused, wait_for
+from tests.support.cli_checks import ROOT, checkout_env, refused, refused_leaving_no_run, tiny_run, wait_for
 
 # 8 updates of 4 envs x 8 steps on a 4x4 grid; one evaluation and checkpoint at the end.
 TINY = ["--net", "linear", "--grid-size", "4", "--total-reward", "6", "--energy", "4", "8", "--risk", "low",
@@ -43,25 +43,37 @@ def _strict(path):
 # ----------------------------------------------------------------------------- flags: train.dcp
 
 @pytest.mark.parametrize("extra, needles", [
+    (["--net", "dqn"], ["invalid choice"]),
     (["--net", "eqn", "--eval-epsilon", "5"], ["--eval-epsilon", "[0, 1]", "5"]),
+    (["--lr", "0"], ["--lr must be > 0"]),
+    (["--lr", "nan"], ["--lr", "NaN", "--lr must be > 0"]),
     (["--entropy", "inf"], ["--entropy", "inf"]),
-    (["--lr", "nan"], ["--lr", "NaN"]),
     (["--value-coef", "-1"], ["--value-coef", ">= 0"]),
     (["--max-grad-norm", "inf"], ["--max-grad-norm", "inf"]),
+    (["--clip-eps", "1.5"], ["--clip-eps must be in (0, 1)"]),
+    (["--gae-lambda", "-0.1"], ["--gae-lambda must be in [0, 1]"]),
+    (["--minibatches", "3"], ["minibatches (3) must divide num_envs * t_max (32)"]),
     (["--seed", "99999999999999999999"], ["--seed", "4294967295"]),
     (["--seeds", "0,99999999999999999999"], ["--seeds", "4294967295"]),
+    (["--seeds", "0,x"], ["--seeds must be comma-separated ints"]),
+    (["--seeds", "1,1"], ["--seeds must be distinct"]),
+    (["--devices", "64"], ["--devices 64: JAX sees only"]),
+    (["--steps", "0"], ["--steps must be an integer >= 1"]),
+    (["--steps", "-5"], ["--steps must be an integer >= 1"]),
+    (["--steps", "16"], ["total_steps (16) must be >= num_envs * t_max (32)"]),
     (["--steps", "1000000000000"], ["--steps", "2147483647"]),
     (["--max-steps", "3000000000"], ["--max-steps", "2147483647"]),
     (["--energy", "inf", "inf"], ["--energy", "finite", "inf"]),
     (["--energy", "1e40", "1e40"], ["--energy", "16777216"]),
     (["--energy", "nan", "8"], ["--energy", "NaN"]),
+    (["--energy", "9", "8"], ["exceeds the maximum"]),
+    (["--min-total-reward", "7"], ["--min-total-reward (7) exceeds --total-reward (6)"]),
+    (["--min-total-reward", "0"], ["--min-total-reward must be an integer >= 1"]),
     (["--grid-size", "1"], ["--grid-size", ">= 2", "1"]),
     (["--grid-size", "0"], ["--grid-size", ">= 2", "0"]),
 ])
 def test_train_dcp_refuses_bad_flags(extra, needles, tmp_path, capsys):
-    out = tmp_path / "run"
-    refused(train_dcp.main, TINY + ["--out", str(out)] + extra, capsys, *needles)
-    assert not out.exists()
+    refused_leaving_no_run(train_dcp.main, TINY + extra, tmp_path / "run", capsys, *needles)
 
 
 @pytest.mark.parametrize("cli, argv, needles", [
@@ -70,9 +82,7 @@ def test_train_dcp_refuses_bad_flags(extra, needles, tmp_path, capsys):
     (train_dcg, DCG + ["--alpha", "0.01"], ["--alpha", "--net emnn only", "'vnn'"]),
 ])
 def test_a_flag_that_does_not_apply_is_refused_not_ignored(cli, argv, needles, tmp_path, capsys):
-    out = tmp_path / "run"
-    refused(cli.main, argv + ["--out", str(out)], capsys, *needles)
-    assert not out.exists()
+    refused_leaving_no_run(cli.main, argv, tmp_path / "run", capsys, *needles)
 
 
 def test_train_dcp_refuses_a_batch_too_big_for_memory_before_compiling(tmp_path, capsys, monkeypatch):
@@ -115,9 +125,7 @@ def test_train_dcp_read_only_out_is_refused(read_only_folder, capsys):
 
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory):
-    out = str(tmp_path_factory.mktemp("hostile") / "tiny")
-    assert train_dcp.main(TINY + ["--out", out]) == 0
-    return out
+    return tiny_run(train_dcp.main, TINY, tmp_path_factory)
 
 
 def test_run_files_are_strict_json(finished):

@@ -48,6 +48,13 @@ def refused(main, argv, capsys, *needles, code=2) -> str:
     return got.err
 
 
+def refused_leaving_no_run(main, argv, out, capsys, *needles) -> str:
+    """:func:`refused` for ``argv`` with ``--out out``, and no run folder ``out`` made; the error text."""
+    err = refused(main, [*argv, "--out", str(out)], capsys, *needles)
+    assert not os.path.exists(out)
+    return err
+
+
 def tiny_run(main, argv, tmp_path_factory) -> str:
     """The folder of a training run ``main(argv + ["--out", folder])`` that finished (exit 0)."""
     out = str(tmp_path_factory.mktemp("runs") / "tiny")
