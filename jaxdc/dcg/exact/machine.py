@@ -214,3 +214,16 @@ def local_machines(cls_next, cls_pos, init_b):
     nxt = np.where(valid[..., None], nxt, np.arange(width)[None, :, None])
     return nxt, cls_pos[glob]
 
+
+
+def walk_back(parent: np.ndarray, action: np.ndarray, src: int, last: int) -> np.ndarray:
+    """The action plan of a search: the actions along ``parent`` links from the reset state (parent ``-1``) to
+    state ``src``, then ``last`` (its best transition); empty when ``src < 0`` (nothing was collected)."""
+    plan = []
+    if src >= 0:
+        plan.append(last)
+        node = src
+        while parent[node] >= 0:
+            plan.append(int(action[node]))
+            node = parent[node]
+    return np.array(plan[::-1], np.int8)
