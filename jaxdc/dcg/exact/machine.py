@@ -9,7 +9,8 @@ the env's own :meth:`~jaxdc.dcg.env.DCG.opponent_move` and merged into classes
 that behave alike (:func:`opponent_machine`, Moore partition refinement, the
 observable being the position; :func:`local_machines` per initial class), and
 rules (1)-(3) of :meth:`~jaxdc.dcg.env.DCG.step_env` on arrays of cells
-(:func:`successors`, :func:`captures`).
+(:func:`successors`, :func:`captures`), and a search's plan from its parent links
+(:func:`walk_back`). :mod:`jaxdc.dcg.exact.team` uses them for two collectors.
 """
 
 from __future__ import annotations

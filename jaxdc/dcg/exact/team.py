@@ -42,6 +42,7 @@ from typing import NamedTuple
 import jax
 import numpy as np
 
+from jaxdc.core import grid
 from jaxdc.core.memory import check_fits
 from jaxdc.core.validate import check_choice, check_positive_int
 from jaxdc.dcg.exact import machine
@@ -211,7 +212,8 @@ class _Codec(NamedTuple):
         return m, p, e, act, o
 
 
-_JOINT = np.stack(np.divmod(np.arange(machine.grid.NUM_ACTIONS**2), machine.grid.NUM_ACTIONS), -1)  # [81, 2]
+_A = grid.NUM_ACTIONS
+_JOINT = np.stack(np.divmod(np.arange(_A**2), _A), -1)  # [81, 2] joint actions, stored as a1 * 9 + a2
 
 
 def _start(g: _Game):
@@ -269,19 +271,19 @@ def game_optimum(env, machines: Machines, state, fog_target: str = "visible") ->
             m2, p2, e2, act2, o2, gain, _ = step(env, g, m[src], p[src], e[src], act[src], o[src], a)
             j = int(np.argmax(gain))
             if gain[j] > best:
-                best, best_src, best_act = float(gain[j]), int(src_state[src[j]]), int(a[j, 0] * 9 + a[j, 1])
+                best, best_src, best_act = float(gain[j]), int(src_state[src[j]]), int(a[j, 0] * _A + a[j, 1])
             live = np.flatnonzero(act2.any(axis=1) & (m2 != full))  # else the game is over
             cand = codec.encode(m2[live], p2[live], e2[live], act2[live], o2[live])
             cand, first = np.unique(cand, return_index=True)
             fresh = ~seen[cand]
             cand, first = cand[fresh], live[first[fresh]]
-            parent[cand], action[cand] = src_state[src[first]], a[first, 0] * 9 + a[first, 1]
+            parent[cand], action[cand] = src_state[src[first]], a[first, 0] * _A + a[first, 1]
             seen[cand] = True
             layer.append(cand)
         frontier = np.concatenate(layer)
         visited += frontier.size
     plan = machine.walk_back(parent, action, best_src, best_act)
-    return TeamOptimum(reward=best, plan=np.stack(np.divmod(plan.astype(np.int64), 9), -1).astype(np.int8),
+    return TeamOptimum(reward=best, plan=np.stack(np.divmod(plan.astype(np.int64), _A), -1).astype(np.int8),
                        item_cells=d, states=visited)
 
 
