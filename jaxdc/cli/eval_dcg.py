@@ -70,6 +70,8 @@ from jaxdc.dcg.analysis.report import (
 from jaxdc.dcg.env import CAPTURES, DCG, OPPONENT_STARTS, OUTCOMES, PATROL_TARGETS
 from jaxdc.dcg.exact.machine import MAX_GRID_SIZE
 from jaxdc.dcg.exact.many_items import sampled_bound
+from jaxdc.dcg.exact.team import FOG_TARGETS
+from jaxdc.dcg.exact.team import sampled_bound as team_bound
 from jaxdc.dcg.opponents import CHASE_TIES, DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
 from jaxdc.io import (
     atomic_write_json,
@@ -230,6 +232,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--safe-base", action="store_true", help="rule reading: no capture in the base")
     p.add_argument("--opponent-out-of-base", action="store_true",
                    help="rule reading: the opponent may not enter the base")
+    p.add_argument("--collectors", type=integer("--collectors", low=1, high=2), default=1,
+                   help="collectors in the team (1..2; 2: jaxdc.dcg.exact.team, exact where the search fits, "
+                        "else its documented upper bound)")
+    p.add_argument("--fog-target", choices=FOG_TARGETS, default=FOG_TARGETS[0],
+                   help="with --collectors 2: the fog strategies' target reading (docs/dcg.md)")
     p.add_argument("--episodes", type=positive_int("--episodes"), default=2000, help="sampled games (2000)")
     p.add_argument("--seed", type=seed("--seed"), default=0, help="the games' PRNG key")
     p.add_argument("--no-progress", action="store_true")
@@ -399,7 +406,11 @@ def _optimum(args, command) -> int:
     try:
         env = DCG(**s.game)
         params = env.make_params(energy=s.energy, max_steps=s.max_steps, chase_tie=s.chase_tie)
-        res = sampled_bound(env, params, jax.random.PRNGKey(s.seed), s.episodes, progress=s.progress)
+        if s.collectors == 1:
+            res = sampled_bound(env, params, jax.random.PRNGKey(s.seed), s.episodes, progress=s.progress)
+        else:
+            res = team_bound(env, params, jax.random.PRNGKey(s.seed), s.episodes, fog_target=s.fog_target,
+                             progress=s.progress)
     except (TypeError, ValueError, NotImplementedError) as e:
         args.error(str(e))
     out = optimum_payload(res, env, energy=s.energy, max_steps=s.max_steps, chase_tie=s.chase_tie, seed=s.seed,

@@ -103,6 +103,8 @@ class OptimumSettings:
     progress: bool
     json: bool
     out: str
+    collectors: int = 1  # 2: the team bound (jaxdc.dcg.exact.team)
+    fog_target: str = "visible"
 
     @classmethod
     def from_args(cls, args) -> "OptimumSettings":
@@ -114,4 +116,4 @@ class OptimumSettings:
                     reward_when_caught=not args.no_reward_when_caught, capture=args.capture,
                     safe_base=args.safe_base, opponent_enters_base=not args.opponent_out_of_base)
         return cls(game, args.energy, args.max_steps, args.chase_tie, args.episodes, args.seed,
-                   not args.no_progress, args.json, args.out)
+                   not args.no_progress, args.json, args.out, args.collectors, args.fog_target)

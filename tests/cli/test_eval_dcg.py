@@ -232,3 +232,22 @@ def test_settings_are_settled_once():
     args = cli.build_parser().parse_args(["figure", "all", "--no-cache", "--no-bound"])
     f = FigureSettings.from_args(args)
     assert f.experiments == tuple(cli.EXPERIMENTS) and not f.cache.reuse and not f.play.bound
+
+
+def test_optimum_two_collectors(tmp_path, capsys):
+    """``--collectors 2``: the same games as one collector, the team's exact optimum where it fits (never below
+    one collector's), else the documented upper bound -- the JSON says which; the default stays one collector."""
+    game = ["optimum", "--grid-size", "3", "--total-reward", "3", "--energy", "3", "--max-steps", "8",
+            "--episodes", "12", "--no-progress", "--json", "--out", str(tmp_path)]
+    assert cli.main(game) == 0
+    one = json.loads(capsys.readouterr().out)
+    assert "collectors" not in one["optimum"] and "kind" not in one["optimum"]
+    assert cli.main(game + ["--collectors", "2"]) == 0
+    two = json.loads(capsys.readouterr().out)
+    assert two["optimum"]["kind"] == "exact" and two["optimum"]["collectors"] == 2
+    assert two["optimum"]["mean"] >= one["optimum"]["mean"] and two["optimum"]["episodes"] == 12
+    assert len(list(tmp_path.glob("optimum_*.json"))) == 2  # the team's record does not overwrite one collector's
+    assert cli.main(["optimum", "--episodes", "3", "--collectors", "2", "--no-progress", "--json",
+                     "--out", str(tmp_path)]) == 0
+    std = json.loads(capsys.readouterr().out)["optimum"]
+    assert std["kind"] == "upper_bound" and std["mean"] == 10.0 and std["largest_search"] > 2**26

@@ -87,6 +87,10 @@ def tiny(tmp_path_factory):
     (["optimum", "--energy", "inf", "--max-steps", "3000000000"], ["--max-steps"]),
     (["optimum", "--seed", "99999999999999999999"], ["--seed"]),
     (["optimum", "--total-reward", "2000000000"], ["--total-reward", "1000"]),
+    (["optimum", "--collectors", "0"], ["--collectors", ">= 1"]),
+    (["optimum", "--collectors", "3"], ["--collectors", "<= 2"]),
+    (["optimum", "--collectors", "two"], ["--collectors", "two"]),
+    (["optimum", "--collectors", "2", "--fog-target", "any"], ["--fog-target", "any"]),
     (["render", "--net", "vnn", "--strategy", "patrol", "--max-steps", "100000"], ["--max-steps", "1000"]),
 ])
 def test_bad_numbers_refused(capsys, tmp_path, argv, words):

@@ -156,13 +156,17 @@ def optimum_payload(res: dict, env, *, energy: float, max_steps: int, chase_tie:
 
 def optimum_name(record: dict, episodes: int) -> str:
     """``optimum_<tag>.json``: the tag a digest of the game, its settings, the seed and the number of games."""
+    team = record["optimum"].get("collectors", 1)  # a team's bound (jaxdc.dcg.exact.team) names its size
+    extra = "" if team == 1 else f"|{team}|{record['optimum']['fog_target']}"
     tag = hashlib.sha1(record["env"].encode() + f"{record['energy']}|{record['max_steps']}|{record['chase_tie']}|"
-                       f"{record['seed']}|{episodes}".encode()).hexdigest()[:8]
+                       f"{record['seed']}|{episodes}{extra}".encode()).hexdigest()[:8]
     return f"optimum_{tag}.json"
 
 
 def optimum_text(res: dict, episodes: int) -> str:
     """The one-line summary of the sampled bound."""
-    return (f"full-information bound over {episodes} games: {res['mean']:.3f} +- {res['se']:.3f} (SE), "
+    what = "" if res.get("collectors", 1) == 1 else (
+        f"{res['collectors']} collectors, " + ("exact" if res["kind"] == "exact" else "upper bound") + ": ")
+    return (what + f"full-information bound over {episodes} games: {res['mean']:.3f} +- {res['se']:.3f} (SE), "
             f"SD {res['sd']:.3f}; " + ", ".join(f"{k} {v['mean']:.3f}" for k, v in res["per_strategy"].items())
             + f"; {res['seconds']:.0f} s")

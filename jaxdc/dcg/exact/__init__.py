@@ -7,4 +7,6 @@
   reward area, and plans that reach it.
 * :mod:`jaxdc.dcg.exact.many_items` -- the optimum of one sampled many-item game
   (the standard game of 5.5.1), and its mean over sampled games.
+* :mod:`jaxdc.dcg.exact.team` -- the optimum of one sampled game for a team of two
+  collectors (issue 29), exact where the joint search fits, and a proven upper bound.
 """

@@ -9,7 +9,8 @@ the env's own :meth:`~jaxdc.dcg.env.DCG.opponent_move` and merged into classes
 that behave alike (:func:`opponent_machine`, Moore partition refinement, the
 observable being the position; :func:`local_machines` per initial class), and
 rules (1)-(3) of :meth:`~jaxdc.dcg.env.DCG.step_env` on arrays of cells
-(:func:`successors`, :func:`captures`).
+(:func:`successors`, :func:`captures`), and a search's plan from its parent links
+(:func:`walk_back`). :mod:`jaxdc.dcg.exact.team` uses them for two collectors.
 """
 
 from __future__ import annotations
@@ -214,3 +215,16 @@ def local_machines(cls_next, cls_pos, init_b):
     nxt = np.where(valid[..., None], nxt, np.arange(width)[None, :, None])
     return nxt, cls_pos[glob]
 
+
+
+def walk_back(parent: np.ndarray, action: np.ndarray, src: int, last: int) -> np.ndarray:
+    """The action plan of a search: the actions along ``parent`` links from the reset state (parent ``-1``) to
+    state ``src``, then ``last`` (its best transition); empty when ``src < 0`` (nothing was collected)."""
+    plan = []
+    if src >= 0:
+        plan.append(last)
+        node = src
+        while parent[node] >= 0:
+            plan.append(int(action[node]))
+            node = parent[node]
+    return np.array(plan[::-1], np.int8)

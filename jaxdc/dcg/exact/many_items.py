@@ -161,14 +161,8 @@ def game_optimum(env, machines: Machines, state) -> GameOptimum:
         seen[frontier] = True
         visited += frontier.size
 
-    plan = []
-    if best_src >= 0:
-        plan.append(best_act)
-        node = best_src
-        while parent[node] >= 0:
-            plan.append(int(action[node]))
-            node = parent[node]
-    return GameOptimum(reward=best, plan=np.array(plan[::-1], np.int8), item_cells=d, states=visited)
+    plan = machine.walk_back(parent, action, best_src, best_act)
+    return GameOptimum(reward=best, plan=plan, item_cells=d, states=visited)
 
 
 def sampled_bound(env, params, key, episodes: int, progress: bool = False) -> dict:
@@ -181,31 +175,49 @@ def sampled_bound(env, params, key, episodes: int, progress: bool = False) -> di
     ``[episodes]`` array of per-game optima. ``MemoryError`` (before any work) when the ``episodes``
     initial states do not fit in memory.
     """
+    t0 = _time.perf_counter()
+    machines = opponent_machines(env, params)
+    states = draw_games(env, params, key, episodes)
+    out = [game_optimum(env, machines, game) for game in games(states, episodes, progress)]
+    res = summarise(env, states, np.array([g.reward for g in out]))
+    res["item_cells_mean"] = float(np.mean([g.item_cells for g in out]))
+    res["seconds"] = _time.perf_counter() - t0
+    return res
+
+
+def draw_games(env, params, key, episodes: int):
+    """The reset states of ``episodes`` games, game ``i`` from ``jax.random.split(key, episodes)[i]`` (host arrays);
+    ``MemoryError`` (before any work) when they do not fit in memory."""
     check_positive_int("episodes", episodes)
     one = jax.eval_shape(env.reset_env, jax.random.PRNGKey(0), params)
     check_fits(2 * episodes * tree_bytes(one), f"the initial states of {episodes} sampled games",
                "the number of games (episodes)")
-    t0 = _time.perf_counter()
-    machines = opponent_machines(env, params)
     _, states = jax.jit(jax.vmap(env.reset_env, in_axes=(0, None)))(jax.random.split(key, episodes), params)
-    states = jax.device_get(states)
-    games = range(episodes)
+    return jax.device_get(states)
+
+
+def games(states, episodes: int, progress: bool = False):
+    """Game ``i`` of :func:`draw_games`'s batch, one at a time (with a progress bar when ``progress``)."""
+    index = range(episodes)
     if progress:
         from tqdm.auto import tqdm
 
-        games = tqdm(games, desc="full-information optimum", unit="game")
-    out = [game_optimum(env, machines, jax.tree_util.tree_map(lambda x, i=i: x[i], states)) for i in games]
-    rewards = np.array([g.reward for g in out])
-    strategy = np.asarray(states.strategy)
+        index = tqdm(index, desc="full-information optimum", unit="game")
+    for i in index:
+        yield jax.tree_util.tree_map(lambda x, i=i: x[i], states)
+
+
+def summarise(env, states, rewards: np.ndarray) -> dict:
+    """``{"mean", "se", "sd", "episodes", "per_strategy", "rewards"}`` of per-game ``rewards`` (see
+    :func:`sampled_bound`)."""
 
     def stats(x):
         sd = float(x.std(ddof=1)) if x.size > 1 else 0.0
         return {"mean": float(x.mean()), "se": sd / math.sqrt(x.size), "sd": sd, "episodes": int(x.size)}
 
+    strategy = np.asarray(states.strategy)
     res = stats(rewards)
     res["per_strategy"] = {name: stats(rewards[strategy == s]) for s, name in enumerate(env.strategies)
                            if np.any(strategy == s)}
-    res["item_cells_mean"] = float(np.mean([g.item_cells for g in out]))
-    res["seconds"] = _time.perf_counter() - t0
     res["rewards"] = rewards
     return res
