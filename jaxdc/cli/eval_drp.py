@@ -210,12 +210,16 @@ def check_settings(p: argparse.ArgumentParser, s) -> None:
     if isinstance(s, FigureSettings):
         from jaxdc.core.memory import check_fits
 
-        # the stacked float32 distance matrices and their survival probabilities, on the host and the device
+        # per process: NC (or the PGC plans) of all instances with one builder at a time; the workers run
+        # at once, and the parent computes the PGC clusters meanwhile (jaxdc.drp.analysis.parallel)
+        from jaxdc.drp.solve import plan_bytes
+
         e = s.experiment
         instances = e.graphs * len(e.alphas)
-        needed = 4 * 4 * e.graphs * (e.nodes + 1) ** 2 + 8 * 4 * instances * (e.nodes + 1)
-        check_fits(needed, f"figure {s.figure} with --graphs {e.graphs} --nodes {e.nodes}",
-                   "--graphs or --nodes")
+        one = max(plan_bytes(b, "nc", e.graphs, instances, e.nodes) for b in BUILDERS)
+        needed = min(s.workers, len(BUILDERS)) * one + plan_bytes("gi", "pgc", e.graphs, instances, e.nodes)
+        check_fits(needed, f"figure {s.figure} with --graphs {e.graphs} --nodes {e.nodes} --workers {s.workers}",
+                   "--graphs or --nodes, or --workers")
     if isinstance(s, PlanSettings):
         inputs = {"--graph": s.graph}
         check_output_folder(s.out, "--out", files=(os.path.basename(plan_path(s)),), inputs=inputs)
@@ -236,7 +240,7 @@ def plan_path(s: PlanSettings) -> str:
 
 def run_plan(s: PlanSettings) -> int:
     from jaxdc.drp import world
-    from jaxdc.drp.solve import graph_arrays, solve_instances
+    from jaxdc.drp.solve import graph_arrays, plan_bytes, solve_instances
 
     try:
         graph = world.load(s.graph)
@@ -246,8 +250,9 @@ def run_plan(s: PlanSettings) -> int:
     from jaxdc.core.memory import check_fits
 
     n = len(graph.nodes)
-    check_fits(4 * 4 * (n + 1) ** 2, f"planning the {n}-node graph of --graph {s.graph}",
-               "the number of nodes in the graph file")
+    check_fits(plan_bytes(s.builder, s.clustering, 1, 1, n),
+               f"planning the {n}-node graph of --graph {s.graph} with --builder {s.builder} "
+               f"--clustering {s.clustering}", "the number of nodes in the graph file")
     D, beta, psi = graph_arrays([graph])
     (reward, tours), = solve_instances(s.builder, s.clustering, D, beta, psi, [0], [graph.alpha])
     result = {"expected_reward": float(reward), "robots": len(tours), "tours": tours}

@@ -48,7 +48,8 @@ def check_fits(needed: int, what: str, lower: str) -> None:
     """``MemoryError`` if ``needed`` bytes exceed :func:`available_bytes`; the message names ``what`` and ``lower``."""
     limit = available_bytes()
     if limit is not None and needed > limit:
-        raise MemoryError(f"{what} needs about {_gib(needed)} but {_gib(limit)} is available; lower {lower}")
+        raise MemoryError(f"{what} needs about {_gib(needed)} but {_gib(limit)} is available; lower {lower} "
+                          f"(JAXDC_MEMORY_LIMIT, in bytes, sets the limit)")
 
 
 def _gib(b: int) -> str:

@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdc.core.validate import check_choice
+from jaxdc.drp.batching import bucket, width
 from jaxdc.drp.evaluate import combine, evaluate_clusters, evaluate_parts, gi_trajectories, host_arrays
 from jaxdc.drp.tour_cache import TourCache
 from jaxdc.drp.tours import BUILDERS
@@ -69,6 +70,30 @@ class _State:
     active: np.ndarray  # [I] bool: the instance may still merge
 
 
+#: Bytes of the initial round's pair masks (and their member and tour arrays) held at once: the ``n (n - 1) / 2``
+#: pairs are evaluated in chunks of whole batches (:func:`_pair_rows`), so that this round needs ``O(n^2)``
+#: memory instead of ``O(n^3)``. The rewards do not depend on the chunks (each tour is built on its own).
+PAIR_CHUNK_BYTES = 2**26
+#: Bytes per pair-mask entry of one chunk: the mask and its two singleton rows (bool), the members and the
+#: tours of :func:`jaxdc.drp.evaluate.evaluate` (int32).
+PAIR_ENTRY_BYTES = 11
+
+
+def _pair_rows(n1):
+    """Pairs per chunk of the initial round: a multiple of the batch width of the pairs' size bucket, so the
+    chunks cut no batch (:func:`jaxdc.drp.batching.bucketed`), with about :data:`PAIR_CHUNK_BYTES` per chunk."""
+    w = width((bucket(2, n1 - 1) + 1) ** 2)
+    return w * max(1, PAIR_CHUNK_BYTES // (PAIR_ENTRY_BYTES * n1 * w))
+
+
+def _pair_chunks(eye, a_idx, b_idx):
+    """``(part, masks)``: the pairs ``(a_idx, b_idx)[part]`` as node-set masks, :func:`_pair_rows` at a time."""
+    rows = _pair_rows(eye.shape[0])
+    for start in range(0, len(a_idx), rows):
+        part = slice(start, start + rows)
+        yield part, eye[a_idx[part]] | eye[b_idx[part]]
+
+
 def _initial_rewards(batch: _Batch, n1: int):
     """``R`` of every singleton and ``Rpair`` of every pair (Algorithm 1, lines 1-8)."""
     I = len(batch.gidx)
@@ -77,13 +102,14 @@ def _initial_rewards(batch: _Batch, n1: int):
     a_idx, b_idx = np.triu_indices(n1 - 1, 1)
     a_idx, b_idx = a_idx + 1, b_idx + 1
     Rpair = np.full((I, n1, n1), -np.inf, np.float64)
-    pairs = eye[a_idx] | eye[b_idx]
     if batch.cache is not None:
         # One build per graph, shared by all its robot values. (No later round asks for a set of size < 3,
         # so they are not stored in the cache.)
+        c2, p2 = np.zeros(len(a_idx), np.float64), np.zeros(len(a_idx), np.float64)
         for g in np.unique(batch.gidx):
             c1, p1 = batch.parts(g, eye[1:])
-            c2, p2 = batch.parts(g, pairs)
+            for part, masks in _pair_chunks(eye, a_idx, b_idx):
+                c2[part], p2[part] = batch.parts(g, masks)
             for i in np.flatnonzero(batch.gidx == g):
                 R[i, 1:] = combine(c1, p1, batch.alpha[i])
                 Rpair[i, a_idx, b_idx] = combine(c2, p2, batch.alpha[i])
@@ -91,8 +117,9 @@ def _initial_rewards(batch: _Batch, n1: int):
         inst = np.repeat(np.arange(I), n1 - 1)
         nodes = np.tile(np.arange(1, n1), I)
         R[inst, nodes] = batch.rewards(inst, eye[nodes])
-        for i in range(I):  # one instance's pairs at a time keeps the mask array small
-            Rpair[i, a_idx, b_idx] = batch.rewards(np.full(len(a_idx), i), pairs)
+        for i in range(I):  # one instance's pairs, a chunk at a time, keeps the mask arrays small
+            for part, masks in _pair_chunks(eye, a_idx, b_idx):
+                Rpair[i, a_idx[part], b_idx[part]] = batch.rewards(np.full(len(masks), i), masks)
     return R, Rpair
 
 

@@ -248,6 +248,9 @@ def load(path) -> Graph:
             from None
     except (OSError, UnicodeDecodeError) as e:
         raise ValueError(f"graph file {path}: cannot read it: {e}") from None
+    unknown = sorted(set(data) - set(_KEYS)) if isinstance(data, dict) else []
+    if unknown:
+        raise ValueError(f"graph file {path}: unknown key {unknown[0]!r} (allowed: {', '.join(_KEYS)})")
     return from_dict(data)
 
 

@@ -121,7 +121,26 @@ class JaxdcVecEnv(VecEnv):
     def get_attr(self, attr_name: str, indices: Any = None) -> list:
         return [getattr(self, attr_name)] * len(list(self._get_indices(indices)))
 
+    #: Attributes fixed at construction (the compiled batch and the spaces SB3 sized its networks by).
+    READ_ONLY = ("env", "num_envs", "observation_space", "action_space")
+
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
+        """Set an attribute of the vector env. ``params`` (shared by all copies, so ``indices`` must name all
+        of them) go through :meth:`jaxdc.core.env.Environment.check_params` and must keep the spaces;
+        :data:`READ_ONLY` attributes are refused."""
+        if attr_name in self.READ_ONLY:
+            raise ValueError(f"set_attr: {attr_name!r} is fixed at construction; build a new JaxdcVecEnv instead")
+        if attr_name == "params":
+            idx = sorted({int(i) for i in self._get_indices(indices)})
+            if idx != list(range(self.num_envs)):
+                raise ValueError(f"set_attr: 'params' are shared by all {self.num_envs} copies; indices must "
+                                 f"name all of them, got {indices!r}")
+            value = self.env.check_params(value)
+            obs_space, act_space = batched.host_spaces(self.env, value)
+            if obs_space != self.observation_space or act_space != self.action_space:
+                raise ValueError("set_attr: these 'params' change the observation or action space "
+                                 f"({obs_space}, {act_space} instead of {self.observation_space}, "
+                                 f"{self.action_space}); build a new JaxdcVecEnv instead")
         setattr(self, attr_name, value)
 
     def env_method(self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any) -> list:

@@ -69,3 +69,12 @@ def test_deeply_nested_graph_file_refused(tmp_path):
         world.load(str(path))
     with pytest.raises(ValueError, match="cannot read it"):
         world.load(str(tmp_path))
+
+
+def test_load_refuses_an_unknown_key_naming_the_file_and_the_key(tmp_path):
+    from jaxdc.drp import world as w
+
+    path = tmp_path / "g.json"
+    path.write_text('{"base": [0, 0], "nodes": [[1, 2]], "rewards": [4], "psi": 0.99, "alpha": 10, "aplha": 5}')
+    with pytest.raises(ValueError, match=r"g\.json.*unknown key 'aplha'"):
+        w.load(path)

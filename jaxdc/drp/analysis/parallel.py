@@ -57,6 +57,30 @@ def _children_ignore_ctrl_c():
             signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
 
 
+def die_with_parent(parent: int) -> None:
+    """Make this (worker) process end when the process ``parent`` dies, even by SIGKILL, which runs no
+    clean-up in the parent: on Linux the kernel sends SIGKILL (``prctl(PR_SET_PDEATHSIG)``); elsewhere, or
+    if that fails, a daemon thread checks the parent's id every 0.5 s and exits when it changes."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            if libc.prctl(1, signal.SIGKILL, 0, 0, 0) == 0:  # 1: PR_SET_PDEATHSIG
+                if os.getppid() != parent:  # the parent died before the call
+                    os._exit(1)
+                return
+        except (OSError, AttributeError):
+            pass
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="die-with-parent").start()
+
+
 def _stop_children():
     """Terminate this process's worker processes (on Ctrl-C: their work is abandoned)."""
     import multiprocessing as mp
@@ -89,10 +113,12 @@ def run_parallel(workers, rewards, graphs, nodes, alphas, base, seed, cache, qui
     builders (:func:`builder_groups`) for NC and for the PGC plans. ``cache``: each worker turns on the
     persistent XLA compilation cache. Same ``(raw, timing)`` as the one-process experiment
     (tests/drp/analysis/test_parallel.py), ``raw`` sorted by key. On Ctrl-C (or SIGTERM) the worker processes are
-    terminated and ``KeyboardInterrupt`` propagates; the workers themselves never see the signal."""
+    terminated and ``KeyboardInterrupt`` propagates; the workers themselves never see the signal. If the parent
+    is killed outright (SIGKILL), the workers and the manager process die with it (:func:`die_with_parent`)."""
     import multiprocessing as mp
     import queue as queue_mod
     from concurrent.futures import ProcessPoolExecutor
+    from multiprocessing.managers import SyncManager
 
     from tqdm import tqdm
 
@@ -106,8 +132,10 @@ def run_parallel(workers, rewards, graphs, nodes, alphas, base, seed, cache, qui
     manager = pool = None
     try:
         with _children_ignore_ctrl_c():
-            manager = ctx.Manager()
-            pool = ProcessPoolExecutor(len(groups), mp_context=ctx)
+            manager = SyncManager(ctx=ctx)
+            manager.start(die_with_parent, (os.getpid(),))
+            pool = ProcessPoolExecutor(len(groups), mp_context=ctx, initializer=die_with_parent,
+                                       initargs=(os.getpid(),))
             clusters_q, ticks = manager.Queue(), manager.Queue()
             futures = [pool.submit(_worker, (cache, clusters_q, ticks, rewards, graphs, nodes, alphas, base, seed,
                                              g, clusterings)) for g in groups]

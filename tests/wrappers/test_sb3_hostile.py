@@ -1,0 +1,57 @@
+"""jaxdc.wrappers.sb3 misuse: ``set_attr`` cannot bypass the grid-shape check or change the fixed attributes
+(issue 31)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.support.sb3_required import require_sb3  # noqa: E402
+
+pytestmark = pytest.mark.sb3
+
+require_sb3()
+
+from jaxdc.dcp.env import DCP  # noqa: E402
+from jaxdc.wrappers.sb3 import JaxdcVecEnv  # noqa: E402
+
+
+def _venv():
+    return JaxdcVecEnv(DCP(grid_size=6), num_envs=2, seed=0)
+
+
+def test_set_attr_params_of_another_grid_size_is_refused():
+    venv = _venv()
+    before = venv.params
+    with pytest.raises(ValueError, match="shape"):
+        venv.set_attr("params", DCP(grid_size=8).make_params())
+    assert venv.params is before
+
+
+def test_set_attr_params_of_another_kind_is_refused():
+    venv = _venv()
+    with pytest.raises((TypeError, ValueError), match="params"):
+        venv.set_attr("params", {"risk": np.zeros((6, 6))})
+
+
+def test_set_attr_params_for_some_copies_only_is_refused():
+    venv = _venv()
+    with pytest.raises(ValueError, match="all 2 copies"):
+        venv.set_attr("params", venv.params, indices=[0])
+
+
+def test_set_attr_same_shape_params_are_taken_and_used():
+    venv = _venv()
+    params = DCP(grid_size=6).make_params()
+    venv.set_attr("params", params)
+    assert venv.params is params
+    venv.reset()
+    venv.step_async(np.zeros(2, np.int64))
+    assert venv.step_wait()[0].shape == (2, 6, 6, 2)
+
+
+@pytest.mark.parametrize("name", JaxdcVecEnv.READ_ONLY)
+def test_set_attr_of_fixed_attributes_is_refused(name):
+    venv = _venv()
+    with pytest.raises(ValueError, match=name):
+        venv.set_attr(name, None)
