@@ -21,8 +21,8 @@ from jaxdc.dcp.env import DCP
 from jaxdc.dcp.env import EnvParams as DCPParams
 from jaxdc.dcp.env import EnvState as DCPState
 
-__all__ = ["DCG", "DCGParams", "DCGState", "DCGTeam", "DCGTeamState", "DCP", "DCPParams", "DCPState", "make", "registered_envs",
-           "__version__"]
+__all__ = ["DCG", "DCGParams", "DCGState", "DCGTeam", "DCGTeamState", "DCP", "DCPParams", "DCPState", "make",
+           "registered_envs", "__version__"]
 
 _GYM_ID = "jaxdc/DCP-v0"
 _DCG_GYM_ID = "jaxdc/DCG-v0"
