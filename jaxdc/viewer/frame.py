@@ -221,7 +221,7 @@ def _draw_team(ax: Any, scene: Scene, small: float, label: float) -> None:
                 fontsize=label if len(share) == 1 else small, color="white", fontweight="bold", alpha=alpha)
         ax.text(c + 0.5 + dx, r + 0.5 - rad - 0.02, str(i + 1), ha="center", va="bottom", fontsize=small,
                 color=AGENT_COLORS[i % len(AGENT_COLORS)], fontweight="bold")
-    opponents = [] if scene.opponent is None and scene.opponents is None else \
+    opponents: Any = [] if scene.opponent is None and scene.opponents is None else \
         np.asarray(scene.opponent if scene.opponents is None else scene.opponents).reshape(-1, 2)
     for r, c in (tuple(int(v) for v in p) for p in opponents):
         if (r, c) in cells:

@@ -29,6 +29,7 @@ disabled or every item is collected, and is truncated at ``max_steps``.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import jax
@@ -150,7 +151,7 @@ class DCGTeam(TeamObservation, Environment[TeamState, EnvParams]):
         )
         if self.single.history_fill == "first":
             planes = self.agent_planes(state, params)
-            state = state.replace(history=jnp.repeat(planes[..., None], self.single.history, axis=-1))
+            state = dataclasses.replace(state, history=jnp.repeat(planes[..., None], self.single.history, axis=-1))
         return self.observe(state, params), state
 
     def _on_opponent(self, pos: jax.Array, opp_pos: jax.Array) -> jax.Array:
@@ -205,7 +206,7 @@ class DCGTeam(TeamObservation, Environment[TeamState, EnvParams]):
         history = jnp.concatenate([planes[..., None], state.history[..., :-1]], axis=-1)
         ep_reward = state.ep_reward + reward
         ep_energy = state.ep_energy + jnp.sum((used & active).astype(jnp.int32))
-        new_state = state.replace(pos=pos, energy=energy, collector_outcome=collector_outcome, items=items,
+        new_state = dataclasses.replace(state, pos=pos, energy=energy, collector_outcome=collector_outcome, items=items,
                                   opponent=opp, history=history, time=time, outcome=outcome, ep_reward=ep_reward,
                                   ep_energy=ep_energy)
         terminated = (outcome != RUNNING) & (outcome != TRUNCATED)
