@@ -21,8 +21,9 @@ from flax import struct
 from jaxdc.dcg.env import RUNNING, EnvState
 from jaxdc.dcg.opponents import OpponentState
 
-#: The largest team and the most opponents (the constructor refuses more; issue 29: 1-4 collectors).
+#: The largest team (the constructor refuses more; issue 29: 1-4 collectors).
 MAX_COLLECTORS = 4
+#: The most opponents (the constructor refuses more).
 MAX_OPPONENTS = 4
 #: Whom a fog strategy (``with_fog``, ``double_blind``) chases in a team (docs/ambiguities.md):
 #: ``"visible"`` -- the nearest active collector outside the fog, staying when every active collector is in
@@ -34,7 +35,7 @@ TARGET_TIES = ("index",)
 
 @struct.dataclass
 class TeamState:
-    """The game of ``k`` collectors and ``m`` opponents; build it with :meth:`DCGTeam.reset`."""
+    """The game of ``k`` collectors and ``m`` opponents; build it with ``DCGTeam.reset``."""
 
     pos: jax.Array  # [k, 2] int32 collector cells
     energy: jax.Array  # [k] float32
