@@ -13,6 +13,9 @@ Measures env-steps/s, all in one process so that the ratios are taken side by si
   states, stepping with auto-reset (the safest-path table is computed once, untimed);
 * ``jax_dcg_random``: the same for the DCG (section 5.5.1 setting) at every batch size;
   the issue's target is DCG throughput within 2x of DCP's at the same batch size;
+* ``jax_dcg_team_random``: the same for the team DCG with two collectors (``DCGTeam(collectors=2)``, the
+  same game otherwise; a step is one team step); the issue-29 target is a per-collector cost within 2x of
+  the one-collector step at the same batch size (``dcg_team_per_collector_within_2x_at_B``);
 * ``jax_handbatched``: :mod:`benchmarks.handbatched_dcp`, the same rules hand-batched in
   JAX (one key per step for the batch, masks, a full fresh reset drawn for every
   environment on every step): a yardstick of what JAX does here, at every batch size;
@@ -75,6 +78,9 @@ RESULTS_DIR = Path("results") / "benchmarks"
 TARGET_RANDOM_4096 = 5e6  # steps/s
 TARGET_SHARE_HANDBATCHED = 0.65
 TARGET_TABLE43_S = 5.0
+#: The team of the ``jax_dcg_team_random`` row, and the per-collector cost target against the one-collector step.
+TEAM_COLLECTORS = 2
+TARGET_TEAM_PER_COLLECTOR = 2.0
 
 
 def log(msg: str) -> None:
@@ -83,7 +89,13 @@ def log(msg: str) -> None:
 
 def make_env(game: str = "dcp"):
     """The benchmarked configurations: the DCP of Table 4.3 (8x8, 30 units, high risk, energy (8, 16))
-    or the DCG of section 5.5.1 (5x5, 10 units, the three standard opponents, energy 15, history 10)."""
+    or the DCG of section 5.5.1 (5x5, 10 units, the three standard opponents, energy 15, history 10), or
+    (``"dcg_team"``) that game with two collectors (:class:`jaxdc.dcg.team.DCGTeam`)."""
+    if game == "dcg_team":
+        from jaxdc.dcg.team import DCGTeam
+
+        team = DCGTeam(collectors=TEAM_COLLECTORS)
+        return team, team.make_params(energy=15.0, max_steps=200)
     if game == "dcg":
         from jaxdc.dcg.env import DCG
 
@@ -115,7 +127,7 @@ def make_rollout(env, params, batch: int, steps: int, policy: str, reset_slots: 
 
     def act(key, state):
         if policy == "random":
-            return jax.random.randint(key, (batch,), 0, env.num_actions)
+            return jax.random.randint(key, (batch,) + (env.action_shape or ()), 0, env.num_actions)
         return jax.vmap(lambda s: navigators.navigator_action("safe_reward", s, table))(state)
 
 
@@ -148,7 +160,7 @@ def check_memory(batch_sizes) -> None:
 
     b = max(batch_sizes)
     per_env = 0
-    for env, params in (make_env("dcp"), make_env("dcg")):
+    for env, params in (make_env("dcp"), make_env("dcg"), make_env("dcg_team")):
         obs, state = jax.eval_shape(env.reset, jax.random.PRNGKey(0), params)
         per_env = max(per_env, memory.tree_bytes(obs) + memory.tree_bytes(state))
     memory.check_fits(4 * b * per_env, f"a batch of {b} environments", "--batch-sizes")
@@ -161,7 +173,8 @@ def bench_jax(policy: str, batch: int, steps: int, repeats: int, seed: int = 0, 
     key = jax.random.key(seed)
     first, best = _time_best(lambda: rollout(key), repeats)
     n = batch * steps
-    impl = ("jax_" if game == "dcp" else "jax_dcg_") + policy + ("" if reset_slots is None else " [reset_slots=B/4]")
+    impl = {"dcp": "jax_", "dcg": "jax_dcg_", "dcg_team": "jax_dcg_team_"}[game] + policy + (
+        "" if reset_slots is None else " [reset_slots=B/4]")
     return {"impl": impl, "batch": batch, "steps": steps, "env_steps": n,
             "seconds": best, "compile_s": max(first - best, 0.0), "steps_per_s": n / best}
 
@@ -252,7 +265,8 @@ def run(args) -> dict:
                 rows.append(row)
     for b in ([min(args.batch_sizes)] if args.quick else args.batch_sizes):
         t = steps_for(b, args.steps, args.quick)
-        for row in (bench_jax("random", b, t, repeats, game="dcg"), bench_handbatched(b, t, repeats)):
+        for row in (bench_jax("random", b, t, repeats, game="dcg"), bench_jax("random", b, t, repeats, game="dcg_team"),
+                    bench_handbatched(b, t, repeats)):
             log(f"{row['impl']:>16} B={b:<6} T={t:<5} {row['steps_per_s']:>14,.0f} steps/s "
                 f"(compile {row['compile_s']:.2f} s)")
             rows.append(row)
@@ -314,11 +328,22 @@ def targets(result: dict) -> dict:
     for b in sorted(set(dcg) & set(dcp)):
         ratio = dcp[b] / dcg[b]
         out[f"dcg_within_2x_of_dcp_at_{b}"] = {"value": ratio, "target": 2.0, "met": ratio <= 2.0}
+    team = {r["batch"]: r["steps_per_s"] for r in result["rows"] if r["impl"] == "jax_dcg_team_random"}
+    for b in sorted(set(team) & set(dcg)):
+        ratio = team_cost_ratio(dcg[b], team[b])
+        out[f"dcg_team_per_collector_within_2x_at_{b}"] = {"value": ratio, "target": TARGET_TEAM_PER_COLLECTOR,
+                                                          "met": ratio <= TARGET_TEAM_PER_COLLECTOR}
     t43 = result.get("table43")
     if t43 and t43["episodes"] == 10_000 and tuple(t43["navigators"]) == TABLE43_NAVIGATORS:
         out["table43_lt_5s"] = {"value": t43["run_s"], "target": TARGET_TABLE43_S,
                                 "met": t43["run_s"] < TARGET_TABLE43_S}
     return out
+
+
+def team_cost_ratio(dcg_rate: float, team_rate: float, collectors: int = TEAM_COLLECTORS) -> float:
+    """The team step's cost per collector over the one-collector step's: ``(dcg_rate / team_rate) / collectors``
+    (at most 2 is the issue-29 target)."""
+    return dcg_rate / team_rate / collectors
 
 
 def markdown(result: dict) -> str:

@@ -15,17 +15,22 @@ from jaxdc._version import __version__
 from jaxdc.dcg.env import DCG
 from jaxdc.dcg.env import EnvParams as DCGParams
 from jaxdc.dcg.env import EnvState as DCGState
+from jaxdc.dcg.team import DCGTeam
+from jaxdc.dcg.team import TeamState as DCGTeamState
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.env import EnvParams as DCPParams
 from jaxdc.dcp.env import EnvState as DCPState
 
-__all__ = ["DCG", "DCGParams", "DCGState", "DCP", "DCPParams", "DCPState", "make", "registered_envs",
-           "__version__"]
+__all__ = ["DCG", "DCGParams", "DCGState", "DCGTeam", "DCGTeamState", "DCP", "DCPParams", "DCPState", "make",
+           "registered_envs", "__version__"]
 
 _GYM_ID = "jaxdc/DCP-v0"
 _DCG_GYM_ID = "jaxdc/DCG-v0"
 #: keyword arguments that go to ``make_params`` rather than the constructor, per environment
-_PARAM_KEYS = {"DCP-v0": ("risk", "energy", "max_steps"), "DCG-v0": ("energy", "max_steps", "chase_tie")}
+_PARAM_KEYS = {"DCP-v0": ("risk", "energy", "max_steps"), "DCG-v0": ("energy", "max_steps", "chase_tie"),
+               "DCGTeam-v0": ("energy", "max_steps", "chase_tie", "energy_range")}
+#: the environment class of each id
+_ENVS = {"DCP-v0": DCP, "DCG-v0": DCG, "DCGTeam-v0": DCGTeam}
 
 
 def _register() -> None:
@@ -51,7 +56,8 @@ _register()
 
 
 def registered_envs() -> tuple[str, ...]:
-    """The ids :func:`make` accepts (``"DCP-v0"``, ``"DCG-v0"``; gymnasium knows them as ``"jaxdc/<id>"``)."""
+    """The ids :func:`make` accepts (``"DCP-v0"``, ``"DCG-v0"``, ``"DCGTeam-v0"``; gymnasium knows the first two
+    as ``"jaxdc/<id>"``; the multi-agent team game has the JaxMARL-style adapter :mod:`jaxdc.wrappers.jaxmarl`)."""
     return tuple(_PARAM_KEYS)
 
 
@@ -62,12 +68,13 @@ def make(id: str, **kwargs: Any) -> tuple[Any, Any]:
         obs, state = env.reset(key, params)
 
     The keywords of ``make_params`` (DCP: ``risk``, ``energy``, ``max_steps``;
-    DCG: ``energy``, ``max_steps``, ``chase_tie``) go there, the others to the
-    environment's constructor.
+    DCG: ``energy``, ``max_steps``, ``chase_tie``; DCGTeam: those and
+    ``energy_range``) go there, the others to the environment's constructor
+    (``jaxdc.make("DCGTeam-v0", collectors=2)``).
     """
     name = id.removeprefix("jaxdc/")
     if name not in _PARAM_KEYS:
         raise ValueError(f"unknown environment id {id!r}; available: {sorted(_PARAM_KEYS)}")
     params_kwargs = {k: kwargs.pop(k) for k in _PARAM_KEYS[name] if k in kwargs}
-    env = DCP(**kwargs) if name == "DCP-v0" else DCG(**kwargs)
+    env = _ENVS[name](**kwargs)
     return env, env.make_params(**params_kwargs)

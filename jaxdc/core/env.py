@@ -65,6 +65,9 @@ class Environment(Generic[S, P]):
     #: check what it is handed.
     state_type: type | None = None
     params_type: type | None = None
+    #: The shape of one (unbatched) action: ``None`` (not checked; the one-agent environments take a scalar),
+    #: or a tuple such as ``(k,)`` for ``k`` stacked agents, which :meth:`check_action` enforces.
+    action_shape: tuple[int, ...] | None = None
 
     def make_params(self, *args: Any, **kwargs: Any) -> P:
         """Validated parameters (written by subclasses)."""
@@ -138,6 +141,20 @@ class Environment(Generic[S, P]):
         _check_shapes(self, state, self.grid_shapes()[1], "state")
         return state
 
+    def check_action(self, action: Any, batch_dims: int = 0) -> Any:
+        """``action`` if its shape is :attr:`action_shape` (after ``batch_dims`` leading batch axes), else a
+        ``ValueError`` naming ``actions``, the shape given and the one expected. Shapes are static, so this runs
+        when a jitted step is traced; environments that declare no :attr:`action_shape` accept any action."""
+        want = self.action_shape
+        if want is None:
+            return action
+        shape = tuple(np.shape(action))
+        if len(shape) != batch_dims + len(want) or shape[batch_dims:] != want:
+            lead = "[batch, " if batch_dims else "["
+            raise ValueError(f"actions has shape {list(shape)}, but {self.name} takes {lead}"
+                             f"{', '.join(map(str, want))}] (one action per agent)")
+        return action
+
     # -- to be written by subclasses -------------------------------------------------
     def reset_env(self, key: jax.Array, params: P) -> tuple[jax.Array, S]:
         raise NotImplementedError
@@ -189,6 +206,7 @@ class Environment(Generic[S, P]):
             params = self.default_params
         self.check_params(params)
         self.check_state(state)
+        self.check_action(action)
         key_step, key_reset = jax.random.split(key)
         obs_st, state_st, reward, terminated, truncated, info = self.step_env(
             key_step, state, action, params
@@ -240,6 +258,7 @@ def step_batch(env: Environment, key: jax.Array, state: Any, action: jax.Array, 
     so a small ``K`` (a few times the expected number of finished episodes
     per step) makes large batches much faster.
     """
+    env.check_action(action, batch_dims=1)
     b = action.shape[0]
     k_step, k_reset = jax.random.split(key)
     if reset_slots is None:

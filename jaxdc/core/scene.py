@@ -29,6 +29,11 @@ class Scene:
       opponent_hidden: whether the agent cannot see the opponent (drawn faded).
       fog: whether the fog cells (top row and left column, base excluded) are hatched.
       notes: extra parts of the status line (e.g. ``"opponent patrol"``).
+      agents: ``[k, 2]`` every agent's cell when there are several (the team DCG), or ``None`` (one agent:
+        ``agent``); they are drawn numbered, each in its own colour, ``agent`` being the first.
+      agent_energies: ``[k]`` their energies (``None`` with one agent).
+      agents_active: ``[k]`` whether each is still active (a disabled one is drawn faded), or ``None``.
+      opponents: ``[m, 2]`` every opponent's cell when there are several, or ``None`` (``opponent`` alone).
     """
 
     items: np.ndarray
@@ -43,3 +48,7 @@ class Scene:
     opponent_hidden: bool = False
     fog: bool = False
     notes: tuple[str, ...] = field(default_factory=tuple)
+    agents: np.ndarray | None = None
+    agent_energies: np.ndarray | None = None
+    agents_active: np.ndarray | None = None
+    opponents: np.ndarray | None = None

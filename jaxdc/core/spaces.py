@@ -18,14 +18,15 @@ import numpy as np
 
 
 class Discrete:
-    """The integers ``0 .. n - 1`` (an action space)."""
+    """The integers ``0 .. n - 1`` (an action space); with ``shape`` (e.g. ``(k,)`` for ``k`` stacked agents)
+    an array of them, each in ``0 .. n - 1``."""
 
-    def __init__(self, num_categories: int) -> None:
+    def __init__(self, num_categories: int, shape: tuple[int, ...] = ()) -> None:
         if isinstance(num_categories, bool) or not isinstance(num_categories, (int, np.integer)) \
                 or num_categories < 1:
             raise ValueError(f"num_categories must be an int >= 1, got {num_categories!r}")
         self.n = int(num_categories)
-        self.shape: tuple[int, ...] = ()
+        self.shape: tuple[int, ...] = tuple(int(s) for s in shape)
         self.dtype = jnp.int32
 
     def sample(self, rng: jax.Array) -> jax.Array:
@@ -33,12 +34,16 @@ class Discrete:
         return jax.random.randint(rng, shape=self.shape, minval=0, maxval=self.n).astype(self.dtype)
 
     def contains(self, x: Any) -> jax.Array:
-        """Whether ``x`` is an integer in ``0 .. n - 1`` (a jittable boolean)."""
+        """Whether ``x`` is an integer in ``0 .. n - 1`` (a jittable boolean); with a ``shape``, whether ``x`` has
+        it and every entry is one."""
         x = jnp.asarray(x)
-        return jnp.logical_and(jnp.logical_and(x >= 0, x < self.n), x == jnp.round(x))
+        ok = jnp.logical_and(jnp.logical_and(x >= 0, x < self.n), x == jnp.round(x))
+        if not self.shape:
+            return ok
+        return jnp.bool_(False) if x.shape != self.shape else jnp.all(ok)
 
     def __repr__(self) -> str:
-        return f"Discrete({self.n})"
+        return f"Discrete({self.n})" if not self.shape else f"Discrete({self.n}, shape={self.shape})"
 
 
 class Box:

@@ -125,3 +125,10 @@ def _float_range_text(low, high, low_open, allow_inf) -> str:
     if not parts:
         return "a finite number or +inf" if allow_inf else "a finite number"
     return " and ".join(parts) + (" (or inf)" if allow_inf else "")
+
+
+def check_bool(name: str, value) -> bool:
+    """``value`` if it is a ``bool`` (or a NumPy bool), else a ``TypeError`` naming ``name`` and the value."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool (True or False), got {value!r}")
+    return bool(value)

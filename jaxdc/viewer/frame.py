@@ -36,6 +36,8 @@ DPI = 100
 #: Colours of the pieces (RGB hex).
 COLORS = {"base": "#5cb85c", "item": "#f0c419", "agent": "#1f5fbf", "opponent": "#d62728", "fog": "#9a9a9a",
           "grid": "#c8c8c8"}
+#: The colours of the agents of a team (:attr:`Scene.agents`), by index; the first is ``COLORS["agent"]``.
+AGENT_COLORS = ("#1f5fbf", "#7b3fa0", "#12867a", "#b8860b")
 _RISK_CMAP = LinearSegmentedColormap.from_list("jaxdc_risk", ["#ffffff", "#fdd49e", "#fc8d59", "#b30000"])
 _PT = 72.0 / DPI  # points per pixel
 
@@ -87,14 +89,18 @@ def check_frame_input(env: Any, params: Any, state: Any) -> tuple[Any, Any, Scen
                         f"env.make_params(...)), got {type(params).__module__}.{type(params).__name__}")
     params, state = jax.device_get((params, state))
     n = env.grid_size
+    want_pos = env.grid_shapes()[1].get("pos", (2,))  # (2,), or (k, 2) for k stacked agents
     items, pos = np.shape(state.items), np.shape(state.pos)
-    if len(items) == 3 or len(pos) == 2:
+    if len(items) == 3 or len(pos) > len(want_pos):
         raise ValueError(f"state is batched (items {items}, pos {pos}); {_unbatched_hint()}")
-    if items != (n, n) or pos != (2,):
+    if items != (n, n) or pos != want_pos:
         raise ValueError(f"state has items of shape {items} and pos of shape {pos}, but the env's grid is "
-                         f"{n} x {n}: expected items ({n}, {n}) and pos (2,)")
+                         f"{n} x {n}: expected items ({n}, {n}) and pos {want_pos}")
     scene = env.scene(state, params)
-    for what, p in (("pos", scene.agent), ("opponent pos", scene.opponent)):
+    cells = [("pos", scene.agent), ("opponent pos", scene.opponent)]
+    cells += [("pos", p) for p in (() if scene.agents is None else scene.agents)]
+    cells += [("opponent pos", p) for p in (() if scene.opponents is None else scene.opponents)]
+    for what, p in cells:
         if p is not None and not all(0 <= int(v) < n for v in np.asarray(p)):
             raise ValueError(f"{what} {tuple(int(v) for v in np.asarray(p))} is outside the {n} x {n} grid")
     if scene.risk is not None and np.shape(scene.risk) != (n, n):
@@ -163,6 +169,22 @@ def render_frame(env: Environment, params: Any, state: Any, *, title: str | None
         ax.add_patch(Circle((c + 0.5, r + 0.5), 0.3, facecolor=COLORS["item"], edgecolor="#8a6d00", linewidth=1))
         ax.text(c + 0.5, r + 0.5, _fmt(items[r, c]), ha="center", va="center", fontsize=label, color="black")
 
+    if scene.agents is not None or scene.opponents is not None:
+        _draw_team(ax, scene, small, label)
+    else:
+        _draw_agent_and_opponent(ax, scene, hidden, label)
+
+    if title is None:
+        title = f"{type(env).__name__} step {scene.step}"
+    fig.text(0.5, 1 - 0.5 * TITLE_PX / height, title, ha="center", va="center", fontsize=9)
+    fig.text(0.5, 0.5 * STATUS_PX / height, _status(scene) + (" (opponent hidden)" if hidden else ""),
+             ha="center", va="center", fontsize=small + 1)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+
+def _draw_agent_and_opponent(ax: Any, scene: Scene, hidden: bool, label: float) -> None:
+    """One agent (blue disc with its energy) and the opponent (red disc, a ring on the agent's cell)."""
     pr, pc = (int(p) for p in np.asarray(scene.agent))
     ax.add_patch(Circle((pc + 0.5, pr + 0.5), 0.36, facecolor=COLORS["agent"], edgecolor="white", linewidth=1.5))
     ax.text(pc + 0.5, pr + 0.5, _fmt(scene.energy), ha="center", va="center", fontsize=label, color="white",
@@ -179,10 +201,33 @@ def render_frame(env: Environment, params: Any, state: Any, *, title: str | None
             ax.text(ocol + 0.5, orow + 0.5, "O", ha="center", va="center", fontsize=label, color="white",
                     fontweight="bold", alpha=0.35 if hidden else 1.0)
 
-    if title is None:
-        title = f"{type(env).__name__} step {scene.step}"
-    fig.text(0.5, 1 - 0.5 * TITLE_PX / height, title, ha="center", va="center", fontsize=9)
-    fig.text(0.5, 0.5 * STATUS_PX / height, _status(scene) + (" (opponent hidden)" if hidden else ""),
-             ha="center", va="center", fontsize=small + 1)
-    canvas.draw()
-    return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+def _draw_team(ax: Any, scene: Scene, small: float, label: float) -> None:
+    """Several agents (:attr:`Scene.agents`), each a disc in its :data:`AGENT_COLORS` colour with its energy and
+    its number (faded once disabled; agents sharing a cell are drawn side by side), and every opponent (a red
+    disc, or a red ring on an agent's cell)."""
+    agents = np.asarray(scene.agent if scene.agents is None else scene.agents).reshape(-1, 2)
+    energies = np.asarray([scene.energy] if scene.agent_energies is None else scene.agent_energies).reshape(-1)
+    active = np.ones(len(agents), bool) if scene.agents_active is None else np.asarray(scene.agents_active)
+    cells = [tuple(int(v) for v in p) for p in agents]
+    for i, (r, c) in enumerate(cells):
+        share = [j for j, cell in enumerate(cells) if cell == (r, c)]
+        rad = 0.36 if len(share) == 1 else 0.22
+        dx = 0.0 if len(share) == 1 else (share.index(i) - (len(share) - 1) / 2) * 0.45
+        alpha = 1.0 if active[i] else 0.35
+        ax.add_patch(Circle((c + 0.5 + dx, r + 0.5), rad, facecolor=AGENT_COLORS[i % len(AGENT_COLORS)],
+                            edgecolor="white", linewidth=1.5, alpha=alpha))
+        ax.text(c + 0.5 + dx, r + 0.5, _fmt(energies[i]), ha="center", va="center",
+                fontsize=label if len(share) == 1 else small, color="white", fontweight="bold", alpha=alpha)
+        ax.text(c + 0.5 + dx, r + 0.5 - rad - 0.02, str(i + 1), ha="center", va="bottom", fontsize=small,
+                color=AGENT_COLORS[i % len(AGENT_COLORS)], fontweight="bold")
+    opponents: Any = [] if scene.opponent is None and scene.opponents is None else \
+        np.asarray(scene.opponent if scene.opponents is None else scene.opponents).reshape(-1, 2)
+    for r, c in (tuple(int(v) for v in p) for p in opponents):
+        if (r, c) in cells:
+            ax.add_patch(Circle((c + 0.5, r + 0.5), 0.46, fill=False, edgecolor=COLORS["opponent"], linewidth=4))
+        else:
+            ax.add_patch(Circle((c + 0.5, r + 0.5), 0.36, facecolor=COLORS["opponent"], edgecolor="white",
+                                linewidth=1.5))
+            ax.text(c + 0.5, r + 0.5, "O", ha="center", va="center", fontsize=label, color="white",
+                    fontweight="bold")

@@ -27,13 +27,24 @@ def test_registry_lists_what_make_accepts():
 
     import jaxdc
 
-    assert jaxdc.registered_envs() == ("DCP-v0", "DCG-v0")
+    assert jaxdc.registered_envs() == ("DCP-v0", "DCG-v0", "DCGTeam-v0")
     for env_id in jaxdc.registered_envs():
         env, params = jaxdc.make(env_id, energy=(5.0, 9.0) if env_id == "DCP-v0" else 9.0)
         assert env.name == env_id.split("-")[0] and env.observation_space(params).shape == env.observation_shape(params)
         env, params = jaxdc.make("jaxdc/" + env_id)  # the gymnasium spelling works too
     with pytest.raises(ValueError, match="unknown environment id 'DCX-v0'; available"):
         jaxdc.make("DCX-v0")
+
+
+def test_make_builds_the_team_game_with_its_params():
+    import jaxdc
+
+    env, params = jaxdc.make("DCGTeam-v0", collectors=3, opponents=2, energy=9.0, energy_range=(5, 12),
+                             max_steps=50)
+    assert isinstance(env, jaxdc.DCGTeam) and (env.collectors, env.opponents) == (3, 2)
+    assert float(params.max_energy) == 12.0 and int(params.max_steps) == 50
+    assert env.observation_space(params).shape == (3, 5, 5, 13)
+    assert env.action_space(params).shape == (3,)
 
 
 class _FlattenObservation:
