@@ -117,7 +117,8 @@ def test_benchmark_main_quick(tmp_path, capsys):
     impls = [(r["impl"], r["batch"]) for r in result["rows"]]
     slots = "jax_random [reset_slots=B/4]"
     assert impls == [("jax_random", 1), (slots, 1), ("jax_random", 4), (slots, 4), ("jax_safe_reward", 1),
-                     ("jax_dcg_random", 1), ("jax_handbatched", 1), ("numpy_batched", 1), ("numpy_loop", 1)]
+                     ("jax_dcg_random", 1), ("jax_dcg_team_random", 1),
+                     ("jax_handbatched", 1), ("numpy_batched", 1), ("numpy_loop", 1)]
     for r in result["rows"]:
         assert r["steps_per_s"] > 0 and r["env_steps"] == r["batch"] * r["steps"]
         assert set(r) >= {"impl", "batch", "steps", "seconds", "compile_s", "steps_per_s", "vs_numpy"}

@@ -151,7 +151,9 @@ def test_a_dcg_resume_is_refused_before_the_build_too(tmp_path, monkeypatch, cap
 
 def test_a_second_run_into_a_folder_in_use_is_refused_at_once(finished, tmp_path, monkeypatch, capsys):
     """Two runs into one folder: the second is refused before its build, naming the folder and the first's
-    process; SIGTERM of the first releases the folder."""
+    process; SIGTERM of the first releases the folder. The first is signalled once it trains (its first
+    checkpoint is written): a signal that arrives during XLA's compile waits for the compile to end, which on
+    a loaded two-core CI machine took over two minutes."""
     out = tmp_path / "busy"
     argv = [a for a in TINY]
     argv[argv.index("--steps") + 1] = "2000000"
@@ -159,6 +161,8 @@ def test_a_second_run_into_a_folder_in_use_is_refused_at_once(finished, tmp_path
                             env=checkout_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert wait_for(lambda: (out / LOCK_NAME).exists() and (out / LOCK_NAME).read_text().strip(), 120)
+        assert wait_for(lambda: any(p.name.isdigit() for p in (out / "checkpoints").glob("*")), 300), \
+            proc.stderr.read() if proc.poll() is not None else "no checkpoint after 300 s"
         _no_build(monkeypatch)
         t0 = time.monotonic()
         refused(train_dcp.main, TINY + ["--out", str(out)], capsys, f"--out {out} is in use by another run "
