@@ -43,7 +43,8 @@ RUN_KEYS = {
             "min_total_reward", "seed", "seeds", "algorithm", "observation", "risk_maps", "map_seeds", "energy_range",
             "init_fraction"),
     "dcg": ("format", "net", "problem", "grid_size", "total_reward", "strategies", "energy", "max_steps", "history",
-            "alpha", "reward_area", "min_reward_area", "seed", "seeds", "algorithm", "observation", "energy_range"),
+            "alpha", "reward_area", "min_reward_area", "seed", "seeds", "algorithm", "observation", "energy_range",
+            "collectors"),
 }
 #: Metadata entries that are counts (ints >= 1), checked on read.
 COUNTS = ("grid_size", "total_reward", "max_steps", "steps", "updates", "min_total_reward", "reward_area",

@@ -25,6 +25,14 @@ turns the policy term into PPO's clipped surrogate (Schulman et al. 2017),
 gradient steps, and ``normalize_advantages`` standardizes the advantages of
 each minibatch.
 
+**Teams** (beyond the thesis: its conclusion to chapter 5 proposes several cooperating collectors). On an
+environment whose actions are one per agent (``env.action_shape == (k,)``, e.g.
+:class:`jaxdc.dcg.team.DCGTeam`) the trainer is independent actor-critic with parameter sharing (IPPO with
+the PPO-style options, as JaxMARL's): the ``k`` agents of every environment are ``k`` rows of the batch, each
+acting on its own observation with the one network; every agent learns from the team reward (the shared
+reward of a cooperative game); an agent's steps count only while it is active (``state.active``; a disabled
+collector's ignored actions carry no gradient). One environment step is still one step of ``total_steps``.
+
 Everything per step is a pure function of arrays. :func:`make_train` returns
 the pieces: ``init(key) -> TrainState``, a jitted ``update(state)`` (one
 rollout plus one gradient step), a jitted ``run(state, n)`` (``n`` updates in
@@ -64,7 +72,7 @@ from jaxdc.core.env import Environment, step_batch
 from jaxdc.core.validate import check_float, check_positive_int
 
 __all__ = ["A2CConfig", "Batch", "TrainState", "Trainer", "Transition", "a2c_loss", "aux_cross_entropy", "huber",
-           "lr_schedule", "make_optimizer", "make_policy", "make_train", "nstep_returns"]
+           "lr_schedule", "make_optimizer", "make_policy", "make_train", "nstep_returns", "team_size"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -140,7 +148,8 @@ class TrainState:
     params: Any
     opt_state: Any
     env_state: Any  # batched [num_envs] environment states
-    obs: jax.Array  # [num_envs, N, N, C]: C = 2 for the DCP, 2 + k for the DCG with its history planes
+    obs: jax.Array  # [num_envs, N, N, C]: C = 2 for the DCP, 2 + k for the DCG with its history planes;
+    # a team's [num_envs, agents, N, N, C]
     key: jax.Array
     update: jax.Array  # int32, updates done so far
 
@@ -155,6 +164,7 @@ class Batch(NamedTuple):
     aux_target: jax.Array
     old_log_prob: jax.Array | None  # log pi_old(a|s), for clip_eps
     advantages: jax.Array | None  # R - V_old(s), fixed before the update
+    weight: jax.Array | None = None  # teams: 1 where the agent was active at the step, else 0; None: all count
 
 
 # -- the pieces of the loss ---------------------------------------------------------------
@@ -165,8 +175,10 @@ def make_optimizer(config: A2CConfig, aux_params: tuple[str, ...] | None = None)
     return make_optimizer_from(config, config.steps_per_update, config.aux_lr, aux_params or ())
 
 
-def aux_cross_entropy(aux_logits: jax.Array, targets: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """Eq. 5.1: mean cross-entropy ``-log p(o_t)`` of the auxiliary head, and its accuracy (argmax = target).
+def aux_cross_entropy(aux_logits: jax.Array, targets: jax.Array,
+                      weights: jax.Array | None = None) -> tuple[jax.Array, jax.Array]:
+    """Eq. 5.1: mean cross-entropy ``-log p(o_t)`` of the auxiliary head, and its accuracy (argmax = target);
+    with ``weights`` (teams: the active agents' steps) their weighted means.
 
     Written out instead of ``optax.softmax_cross_entropy_with_integer_labels`` on purpose:
     optax's ``logsumexp - logit`` gives the same mean here but gradients that differ in the
@@ -174,14 +186,18 @@ def aux_cross_entropy(aux_logits: jax.Array, targets: jax.Array) -> tuple[jax.Ar
     training bit-identical to the runs that made the shipped networks.
     """
     logp = jax.nn.log_softmax(aux_logits)
-    ce = -jnp.mean(jnp.take_along_axis(logp, targets[:, None], axis=-1)[:, 0])
-    return ce, jnp.mean(jnp.argmax(aux_logits, axis=-1) == targets)
+    logp_o = jnp.take_along_axis(logp, targets[:, None], axis=-1)[:, 0]
+    hit = jnp.argmax(aux_logits, axis=-1) == targets
+    if weights is None:
+        return -jnp.mean(logp_o), jnp.mean(hit)
+    total = jnp.maximum(jnp.sum(weights), 1.0)
+    return -jnp.sum(logp_o * weights) / total, jnp.sum(hit * weights) / total
 
 
 def a2c_loss(params: Any, apply_fn: Callable, obs: jax.Array, heuristics: jax.Array, actions: jax.Array,
              returns: jax.Array, config: A2CConfig, aux_targets: jax.Array | None = None,
-             old_log_probs: jax.Array | None = None,
-             advantages: jax.Array | None = None) -> tuple[jax.Array, dict[str, jax.Array]]:
+             old_log_probs: jax.Array | None = None, advantages: jax.Array | None = None,
+             weights: jax.Array | None = None) -> tuple[jax.Array, dict[str, jax.Array]]:
     """Mean over the batch of ``-log pi(a|s) A + value_coef * Huber(R - V) - entropy_coef * H(pi)``.
 
     ``A = R - V(s)`` is held constant (``stop_gradient``) in the policy term.
@@ -193,27 +209,29 @@ def a2c_loss(params: Any, apply_fn: Callable, obs: jax.Array, heuristics: jax.Ar
     Options (not in the thesis): ``advantages`` replaces ``A`` (e.g. normalized
     ones, computed before the update); with ``config.clip_eps`` the policy
     term is PPO's ``-min(rho A, clip(rho, 1 - eps, 1 + eps) A)``,
-    ``rho = pi(a|s) / pi_old(a|s)`` from ``old_log_probs``.
+    ``rho = pi(a|s) / pi_old(a|s)`` from ``old_log_probs``. ``weights`` (teams: 1 for an active agent's step,
+    0 for a disabled one's) turn every mean into the weighted mean.
     """
+    mean = jnp.mean if weights is None else (lambda x: jnp.sum(x * weights) / jnp.maximum(jnp.sum(weights), 1.0))
     logits, values, *aux = apply_fn(params, obs, heuristics)
     logp = jax.nn.log_softmax(logits)
     logp_a = jnp.take_along_axis(logp, actions[:, None], axis=-1)[:, 0]
     advantage = returns - values
     adv = jax.lax.stop_gradient(advantage) if advantages is None else advantages
     if config.clip_eps is None:
-        policy_loss = -jnp.mean(logp_a * adv)
+        policy_loss = -mean(logp_a * adv)
     else:
         assert old_log_probs is not None, "clip_eps needs old_log_probs"
         ratio = jnp.exp(logp_a - old_log_probs)
         clipped = jnp.clip(ratio, 1.0 - config.clip_eps, 1.0 + config.clip_eps)
-        policy_loss = -jnp.mean(jnp.minimum(ratio * adv, clipped * adv))
-    value_loss = jnp.mean(huber(advantage))
-    entropy = -jnp.mean(jnp.sum(jnp.exp(logp) * logp, axis=-1))
+        policy_loss = -mean(jnp.minimum(ratio * adv, clipped * adv))
+    value_loss = mean(huber(advantage))
+    entropy = -mean(jnp.sum(jnp.exp(logp) * logp, axis=-1))
     loss = policy_loss + config.value_coef * value_loss - config.entropy_coef * entropy
     metrics = {"policy_loss": policy_loss, "value_loss": value_loss, "entropy": entropy}
     if aux:
         assert aux_targets is not None, "a network with an auxiliary head needs aux_targets"
-        aux_loss, aux_accuracy = aux_cross_entropy(aux[0], aux_targets)
+        aux_loss, aux_accuracy = aux_cross_entropy(aux[0], aux_targets, weights)
         loss = loss + config.aux_coef * aux_loss
         metrics.update(aux_loss=aux_loss, aux_accuracy=aux_accuracy)
     return loss, dict(metrics, loss=loss)
@@ -243,6 +261,27 @@ def make_policy(net: Network, params: Any, heuristics: Callable | None = None, g
 
 
 # -- training -----------------------------------------------------------------------------
+def team_size(env: Environment) -> int | None:
+    """``k`` for an environment that takes one action per agent (``env.action_shape == (k,)``, e.g.
+    :class:`jaxdc.dcg.team.DCGTeam`), ``None`` for a one-agent environment (no ``action_shape``)."""
+    shape = getattr(env, "action_shape", None)
+    if shape is None:
+        return None
+    if len(shape) != 1:
+        raise ValueError(f"{type(env).__name__}.action_shape is {shape}: the trainer takes one agent axis (k,)")
+    return int(shape[0])
+
+
+def _no_heuristics(num_actions: int, agents: int) -> Callable:
+    """Zero heuristics ``[B * k, 1, A]`` for the rows of a team batch (its networks read none)."""
+
+    def zeros(env_states):
+        b = jax.tree_util.tree_leaves(env_states)[0].shape[0]
+        return jnp.zeros((b * agents, 1, num_actions), jnp.float32)
+
+    return zeros
+
+
 def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Network, heuristics: Callable | None = None,
                aux_target: Callable | None = None) -> Trainer:
     """Build the A2C trainer of ``net`` on ``env`` with ``env_params`` (validated outside jit).
@@ -251,10 +290,26 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
     ``aux_target`` (``info -> int labels [B]`` of the step that follows the observation, e.g.
     ``lambda info: info["opponent_action"]`` for the DCG) supervises a network's auxiliary head;
     a network with such a head (``net.has_aux``) needs it.
+
+    On a team environment (:func:`team_size` ``k``; the module docs) the observations are ``[B, k, ...]`` and
+    ``aux_target`` gives ``[B, k]`` labels; a network that reads heuristics is refused (a team game has none).
     """
     if not isinstance(config, A2CConfig):
         raise TypeError(f"config must be an A2CConfig, got {type(config).__name__}")
+    agents = team_size(env)
+    if agents is not None:
+        if check_network(net).uses_heuristics:
+            raise ValueError(f"{type(net).__name__} reads heuristics, which {type(env).__name__} (a team of "
+                             f"{agents} agents) does not give; train a network without them")
+        if heuristics is not None:
+            raise ValueError(f"heuristics: a team environment ({type(env).__name__}) takes none, got {heuristics!r}")
+        heuristics = _no_heuristics(net.num_actions, agents)
     heuristics = heuristics_fn(check_network(net), heuristics)
+    k = agents or 1
+    # a team's [B, k, ...] arrays as k rows per environment, and an environment's [B] values per row
+    rows = (lambda x: x) if agents is None else (lambda x: x.reshape((-1,) + x.shape[2:]))
+    per_agent = (lambda x: x) if agents is None else (lambda x: jnp.repeat(x, k, axis=0))
+    by_env = (lambda x: x) if agents is None else (lambda x: x.reshape((-1, k)))
     if net.has_aux and aux_target is None:
         raise ValueError(f"{type(net).__name__} has an auxiliary head: pass aux_target=info -> labels [B] "
                          "(for the DCG: lambda info: info['opponent_action'])")
@@ -266,25 +321,29 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
     needs_old_policy = config.gae_lambda < 1 or config.clip_eps is not None or config.normalize_advantages
 
     def init(key) -> TrainState:
-        params, obs, env_state, k_train = first_batch(key, env, env_params, net, heuristics, config.num_envs)
+        params, obs, env_state, k_train = first_batch(key, env, env_params, net, heuristics, config.num_envs,
+                                                      agents)
         return TrainState(params, tx.init(params), env_state, obs, k_train, jnp.int32(0))
 
     def env_step(params, carry, _):
         env_state, obs, key = carry
         key, k_act, k_env = jax.random.split(key, 3)
         h = heuristics(env_state)
-        logits = net.apply(params, obs, h)[0]
+        logits = net.apply(params, rows(obs), h)[0]
         action = jax.random.categorical(k_act, logits).astype(jnp.int32)
         obs2, env_state2, reward, term, trunc, info = step_batch(
-            env, k_env, env_state, action, env_params, config.reset_slots)
+            env, k_env, env_state, by_env(action), env_params, config.reset_slots)
+        reward, term, trunc = per_agent(reward), per_agent(term), per_agent(trunc)
         final_value = jax.lax.cond(
             trunc.any(),
-            lambda: jnp.where(trunc, value_fn(params, info["final_observation"]), 0.0),
+            lambda: jnp.where(trunc, value_fn(params, rows(info["final_observation"])), 0.0),
             lambda: jnp.zeros_like(reward))
         done = term | trunc
-        target = aux_target(info).astype(jnp.int32) if aux_target is not None else jnp.zeros_like(action)
-        t = Transition(obs, h, action, reward, term, trunc, final_value,
-                       jnp.where(done, info["episode_reward"], 0.0), target)
+        target = aux_target(info).astype(jnp.int32).reshape(action.shape) if aux_target is not None \
+            else jnp.zeros_like(action)
+        weight = None if agents is None else rows(env_state.active).astype(jnp.float32)
+        t = Transition(rows(obs), h, action, reward, term, trunc, final_value,
+                       jnp.where(done, per_agent(info["episode_reward"]), 0.0), target, weight)
         return (env_state2, obs2, key), t
 
     def adam_step(carry, batch: Batch):
@@ -292,10 +351,15 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
         adv = batch.advantages
         if config.normalize_advantages:
             assert adv is not None, "normalize_advantages needs the batch's advantages"
-            adv = (adv - jnp.mean(adv)) / (jnp.std(adv) + 1e-8)
+            if batch.weight is None:
+                adv = (adv - jnp.mean(adv)) / (jnp.std(adv) + 1e-8)
+            else:  # the active agents' steps only
+                w = batch.weight / jnp.maximum(jnp.sum(batch.weight), 1.0)
+                centred = adv - jnp.sum(w * adv)
+                adv = centred / (jnp.sqrt(jnp.sum(w * centred ** 2)) + 1e-8)
         grads, metrics = jax.grad(a2c_loss, has_aux=True)(
             params, net.apply, batch.obs, batch.heuristics, batch.action, batch.returns, config,
-            batch.aux_target, batch.old_log_prob, adv)
+            batch.aux_target, batch.old_log_prob, adv, batch.weight)
         updates, opt_state = tx.update(grads, opt_state, params)
         return (optax.apply_updates(params, updates), opt_state), metrics
 
@@ -305,8 +369,8 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
             (params, opt_state), metrics = adam_step((params, opt_state), batch)
             return params, opt_state, key, metrics
 
-        def epoch(carry, k):
-            perm = jax.random.permutation(k, config.batch_size)
+        def epoch(carry, k_epoch):
+            perm = jax.random.permutation(k_epoch, config.batch_size * k)
             parts = jax.tree_util.tree_map(lambda x: x[perm].reshape((config.minibatches, -1) + x.shape[1:]), batch)
             return jax.lax.scan(adam_step, carry, parts, unroll=True)
 
@@ -327,15 +391,19 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
             old_log_prob = jnp.take_along_axis(jax.nn.log_softmax(logits), flat(traj.action)[:, None], -1)[:, 0]
             values = values.reshape(traj.reward.shape)
         returns = nstep_returns(traj.reward, traj.terminated, traj.truncated, traj.final_value,
-                                value_fn(ts.params, obs), config.gamma, values, config.gae_lambda)
+                                value_fn(ts.params, rows(obs)), config.gamma, values, config.gae_lambda)
         if needs_old_policy:
             assert values is not None
             advantages = flat(returns - values)
         batch = Batch(flat(traj.obs), flat(traj.heuristics), flat(traj.action), flat(returns),
-                      flat(traj.aux_target), old_log_prob, advantages)
+                      flat(traj.aux_target), old_log_prob, advantages,
+                      None if traj.weight is None else flat(traj.weight))
         params, opt_state, key, metrics = learn(ts.params, ts.opt_state, key, batch)
         done = traj.terminated | traj.truncated
-        metrics = dict(metrics, episodes=jnp.sum(done), episode_reward_sum=jnp.sum(traj.episode_reward),
+        # a team's episode is on each of its k rows: counted once
+        episodes = jnp.sum(done) if agents is None else jnp.sum(done) // k
+        episode_reward_sum = jnp.sum(traj.episode_reward) if agents is None else jnp.sum(traj.episode_reward) / k
+        metrics = dict(metrics, episodes=episodes, episode_reward_sum=episode_reward_sum,
                        reward_per_step=jnp.mean(traj.reward))
         return TrainState(params, opt_state, env_state, obs, key, ts.update + 1), metrics
 

@@ -135,6 +135,7 @@ class Transition(NamedTuple):
     final_value: jax.Array  # V(last obs of the finished episode) where truncated, else 0
     episode_reward: jax.Array  # the finished episode's reward where done, else 0
     aux_target: jax.Array  # int32 label of the auxiliary head (e.g. the opponent's action o_t), else 0
+    weight: jax.Array | None = None  # teams (a2c): 1 where the agent was active, else 0; None: one agent
 
 
 class Trainer(NamedTuple):
@@ -273,12 +274,15 @@ def heuristics_fn(net: Network, heuristics: Callable | None) -> Callable:
 
 
 def first_batch(key: jax.Array, env: Any, env_params: Any, net: Network, heuristics: Callable,
-                num_envs: int) -> tuple[Any, jax.Array, Any, jax.Array]:
+                num_envs: int, agents: int | None = None) -> tuple[Any, jax.Array, Any, jax.Array]:
     """A run's start: ``num_envs`` environments reset and the network's parameters initialised on their first
-    observations, ``(params, obs, env_state, key)`` with ``key`` the run's own key (``key`` split three ways)."""
+    observations, ``(params, obs, env_state, key)`` with ``key`` the run's own key (``key`` split three ways).
+    With ``agents`` (a team environment) the observations are ``[num_envs, agents, ...]`` and the network is
+    initialised on their ``num_envs * agents`` rows."""
     k_net, k_env, k_train = jax.random.split(key, 3)
     obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(k_env, num_envs), env_params)
-    params = net.init(k_net, obs, heuristics(env_state))
+    rows = obs if agents is None else obs.reshape((-1,) + obs.shape[2:])
+    params = net.init(k_net, rows, heuristics(env_state))
     return params, obs, env_state, k_train
 
 

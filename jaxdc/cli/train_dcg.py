@@ -30,7 +30,9 @@ game of section 5.5.5 instead of the standard one (docs/dcg.md).
 ``--energy-range LOW HIGH`` (beyond the thesis) draws each episode's maximum
 energy among the integers of the range, and ``--observation general`` shows
 the collector its budget (docs/generalisation.md): one network for every
-maximum energy.
+maximum energy. ``--collectors K`` (beyond the thesis) trains one network shared by
+the ``K`` collectors of the team game (:class:`jaxdc.dcg.team.DCGTeam`) on the team
+reward (:mod:`jaxdc.training.dcg`).
 
 The learner options of ``train.dcp`` (``--gae-lambda``, ``--clip-eps``,
 ``--epochs``, ``--minibatches``, ``--normalize-advantages``,
@@ -67,6 +69,7 @@ from jaxdc.cli.train_common import (
 from jaxdc.core.energy import ENERGY_SCALE
 from jaxdc.dcg.env import OBSERVATIONS
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
+from jaxdc.dcg.team.state import MAX_COLLECTORS
 from jaxdc.io import check_output_path
 from jaxdc.training.dcg import NETS, DCGRun, DCGSettings, settings_from_metadata
 from jaxdc.training.distributed import is_primary
@@ -110,6 +113,10 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--energy-range", nargs=2, type=training_energy("--energy-range"), metavar=("LOW", "HIGH"),
                    default=None, help="each episode's maximum energy: a whole number in [LOW, HIGH] (replaces "
                                       "--energy; the evaluation during training draws from the range too)")
+    g = p.add_argument_group("the team game (beyond the thesis; docs/dcg.md)")
+    g.add_argument("--collectors", type=integer("--collectors", low=1, high=MAX_COLLECTORS), default=1,
+                   help=f"k collectors (1..{MAX_COLLECTORS}) sharing one network and the team reward "
+                        "(independent actor-critic with parameter sharing: IPPO with the PPO-style options)")
     add_a2c_arguments(p)
     add_config_arguments(p, "dcg")
     return p
@@ -131,9 +138,11 @@ def settle(args):
                            max_steps=args.max_steps, reward_area=args.reward_area,
                            min_reward_area=args.min_reward_area, eval_episodes=args.eval_episodes,
                            greedy_eval=args.greedy_eval, observation=args.observation,
-                           energy_range=None if args.energy_range is None else tuple(args.energy_range))
+                           energy_range=None if args.energy_range is None else tuple(args.energy_range),
+                           collectors=args.collectors)
     energy = f"{args.energy:g}" if args.energy_range is None else "{:g}-{:g}".format(*args.energy_range)
-    out = args.out or os.path.join("runs", f"dcg-{args.net}-e{energy}-s{seed_tag(args)}")
+    team = "" if args.collectors == 1 else f"-k{args.collectors}"
+    out = args.out or os.path.join("runs", f"dcg-{args.net}{team}-e{energy}-s{seed_tag(args)}")
     return settings, run_control(args, out)
 
 

@@ -14,12 +14,16 @@ damaged file, another problem, an unknown network, or parameters whose
 shapes do not fit the network (another grid size or history length), or
 parameters holding NaN or infinity, raise a ``ValueError`` that names the file
 and the problem. :meth:`Learned.game` rebuilds the DCG
-of training, with optional changes (energy, strategy set, reward area, ...).
+of training, with optional changes (energy, strategy set, reward area, ...); a network trained by a team
+(``collectors`` in its metadata, ``train.dcg --collectors K``) gets the team game
+(:class:`jaxdc.dcg.team.DCGTeam`), and :meth:`Learned.policy` is then one collector's policy, which
+:func:`jaxdc.dcg.team.policies.copies` turns into the team's.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 from typing import Any
 
@@ -30,6 +34,8 @@ from jaxdc import pretrained
 from jaxdc.core.tree_check import check_like
 from jaxdc.dcg.env import DCG
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
+from jaxdc.dcg.team import DCGTeam
+from jaxdc.dcg.team.state import MAX_COLLECTORS
 from jaxdc.nets.registry import DCG_NETS, build
 
 #: Networks of section 5.4, in the order of the thesis' figures (the registry :data:`jaxdc.nets.registry.DCG_NETS`).
@@ -86,6 +92,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "strategies": _strategies, "history": json_int(0), "chase_tie": json_choice(CHASE_TIES),
         "obs_history": json_bool, "alpha": optional(json_number(0.0)), "seed": json_int(0, SEED_MAX),
         "steps": json_int(1, None), "updates": json_int(1, None), "energy_range": optional(_energy_range),
+        "collectors": json_int(1, MAX_COLLECTORS),
         **options, "env": json_object(options),
     }
 
@@ -110,9 +117,18 @@ def check_setting(meta: dict, where: str) -> dict:
 
 
 def state_channels(meta: dict) -> int:
-    """The state planes of the observation the network of ``meta`` was trained on: 2, or 3 for the ``"general"``
-    observation (beyond the thesis: the budget plane)."""
-    return 3 if meta.get("observation", meta.get("env", {}).get("observation")) == "general" else 2
+    """The state planes of the observation the network of ``meta`` was trained on: 2, plus the budget plane of
+    the ``"general"`` observation, plus the teammates plane of a team (``collectors > 1``; beyond the thesis)."""
+    general = meta.get("observation", meta.get("env", {}).get("observation")) == "general"
+    return 2 + int(general) + int(meta.get("collectors", 1) > 1)
+
+
+def opponent_labels(collectors: int) -> Callable:
+    """``info -> labels`` of the opponent-action head (Eq. 5.1): ``info["opponent_action"]`` ``[B]``; for a team of
+    ``collectors > 1``, the first opponent's action for every collector, ``[B, k]``."""
+    if collectors == 1:
+        return lambda info: info["opponent_action"]
+    return lambda info: jnp.repeat(info["opponent_action"][:, :1], collectors, axis=1)
 
 
 def make_network(name: str, history: int = 10, planes: int = 2) -> Any:
@@ -147,6 +163,11 @@ class Learned(pretrained.Learned):
         return self.metadata.get("steps", self.metadata.get("algorithm", {}).get("total_steps"))
 
     @property
+    def collectors(self) -> int:
+        """The collectors of training: 1 (the thesis' game), or a team's ``k`` (``train.dcg --collectors``)."""
+        return int(self.metadata.get("collectors", 1))
+
+    @property
     def has_aux(self) -> bool:
         """Whether the network predicts the opponent's action (EMNN, OMN + CoNN)."""
         return bool(getattr(self.net, "has_aux", False))
@@ -159,7 +180,7 @@ class Learned(pretrained.Learned):
         return {k: v for k, v in options.items() if v is not None}
 
     def game(self, energy: float | None = None, strategies: Any = None, reward_area: int | None = None,
-             max_steps: int | None = None) -> tuple[DCG, Any]:
+             max_steps: int | None = None) -> tuple[DCG | DCGTeam, Any]:
         """``(env, params)``: the DCG of training, with the given settings changed.
 
         A network trained over a range of maximum energies (``energy_range`` in its metadata) plays that range
@@ -176,9 +197,10 @@ class Learned(pretrained.Learned):
         # train.dcg plays VNN without history planes (metadata history 0); VNN reads obs[..., :2] either way
         k = int(s["history"])
         obs_history = bool(self.metadata.get("obs_history", k > 0))
-        env = DCG(grid_size=s["grid_size"], total_reward=1 if reward_area is not None else s["total_reward"],
-                  strategies=tuple(strategies if strategies is not None else s["strategies"]),
-                  history=max(k, 1), obs_history=obs_history, **options)
+        game = DCG if self.collectors == 1 else functools.partial(DCGTeam, collectors=self.collectors)
+        env = game(grid_size=s["grid_size"], total_reward=1 if reward_area is not None else s["total_reward"],
+                   strategies=tuple(strategies if strategies is not None else s["strategies"]),
+                   history=max(k, 1), obs_history=obs_history, **options)
         energy_range = self.metadata.get("energy_range") if energy is None else None
         params = env.make_params(energy=s["energy"] if energy is None else energy,
                                  max_steps=s["max_steps"] if max_steps is None else max_steps,
@@ -203,7 +225,8 @@ class Learned(pretrained.Learned):
                 + (f", energy {float(s['energy']):g}, " if not (r := self.metadata.get("energy_range")) else
                    f", energies {r[0]:g}-{r[1]:g} ({self.metadata.get('observation', 'thesis')} observation), ")
                 + f"strategies {','.join(s['strategies'])}, history {s['history']}, "
-                f"{self.steps or '?'} steps, seed {self.metadata.get('seed', '?')} ({self.source})")
+                + (f"a team of {self.collectors} collectors, " if self.collectors > 1 else "")
+                + f"{self.steps or '?'} steps, seed {self.metadata.get('seed', '?')} ({self.source})")
 
 
 def _check(name, net, params, meta, source):
@@ -248,7 +271,7 @@ def train_state_template(module: Any, meta: dict, source: str) -> Any:
         config = a2c.A2CConfig(**algo)
     except (TypeError, ValueError) as e:
         raise ValueError(f"{source}: the metadata has an unusable algorithm configuration: {e}") from None
-    aux = (lambda info: info["opponent_action"]) if getattr(module, "has_aux", False) else None
+    aux = opponent_labels(learned.collectors) if getattr(module, "has_aux", False) else None
     return a2c.make_train(config, env, env_params, module, aux_target=aux).init(jax.random.PRNGKey(0))
 
 

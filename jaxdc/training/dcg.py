@@ -9,6 +9,12 @@ evaluation (episode statistics and, for the networks with an opponent head,
 :func:`opponent_accuracy`), runs them with the loop of
 :class:`~jaxdc.training.loop.TrainingRun`, and :meth:`DCGRun.ship` writes the
 final parameters as a parameter file.
+
+With ``collectors = k > 1`` (beyond the thesis: the team game its conclusion to chapter 5 proposes) the run
+trains one network shared by the ``k`` collectors of :class:`jaxdc.dcg.team.DCGTeam` on the team reward
+(independent actor-critic with parameter sharing, IPPO with the PPO-style options: :mod:`jaxdc.agents.a2c`),
+each collector seeing the teammates plane; the evaluation plays the team (the team reward per game) and the
+opponent-action accuracy is scored per collector against the first opponent's action.
 """
 
 from __future__ import annotations
@@ -27,9 +33,13 @@ from jaxdc.core.energy import check_energy_range
 from jaxdc.core.env import step_batch
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import episode_summary
-from jaxdc.core.validate import check_choice
+from jaxdc.core.validate import check_choice, check_int
 from jaxdc.dcg.env import DCG, MIN_RANGE_ENERGY, OBSERVATIONS, OUTCOMES
+from jaxdc.dcg.learned import opponent_labels
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
+from jaxdc.dcg.team import DCGTeam
+from jaxdc.dcg.team.policies import copies
+from jaxdc.dcg.team.state import MAX_COLLECTORS
 from jaxdc.metadata import FORMAT, check_run, recorded_pair, run_settings
 from jaxdc.nets import DCG_NETS, build
 from jaxdc.training.fields import SettingError
@@ -61,6 +71,8 @@ class DCGSettings:
       energy_range: ``None`` (every episode has ``energy``) or ``(low, high)``: each training and evaluation
         episode draws its maximum energy among the integers of the range (beyond the thesis); ``energy`` is then
         only recorded.
+      collectors: ``k``, 1 (the thesis' game) .. :data:`~jaxdc.dcg.team.state.MAX_COLLECTORS`; with ``k > 1`` the
+        team game (module docs; beyond the thesis).
     """
 
     net: str
@@ -78,9 +90,11 @@ class DCGSettings:
     greedy_eval: bool = False
     observation: str = "thesis"
     energy_range: tuple[float, float] | None = None
+    collectors: int = 1
 
     def __post_init__(self) -> None:
         check_choice("observation", self.observation, OBSERVATIONS)
+        check_int("collectors", self.collectors, 1, MAX_COLLECTORS)
         if self.energy_range is not None:
             check_energy_range(self.energy_range, MIN_RANGE_ENERGY)
 
@@ -90,7 +104,7 @@ class DCGSettings:
         return DCG_NETS[self.net].has_aux
 
 
-def opponent_accuracy(env: DCG, env_params: Any, net: Any, params: Any, key: jax.Array,
+def opponent_accuracy(env: DCG | DCGTeam, env_params: Any, net: Any, params: Any, key: jax.Array,
                       num_envs: int = ACCURACY_ENVS, steps: int = ACCURACY_STEPS) -> jax.Array:
     """Share of steps on which the argmax of the opponent-action head equals ``o_t`` (section 5.5.3).
 
@@ -100,29 +114,37 @@ def opponent_accuracy(env: DCG, env_params: Any, net: Any, params: Any, key: jax
     """
     k_reset, k_run = jax.random.split(key)
     obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(k_reset, num_envs), env_params)
+    k = env.collectors if isinstance(env, DCGTeam) else 1
+    team = isinstance(env, DCGTeam)
 
-    def step(carry, k):
+    def step(carry, k_step):
         obs, state = carry
-        k_act, k_env = jax.random.split(k)
-        logits, _, opp_logits = net.apply(params, obs)
+        k_act, k_env = jax.random.split(k_step)
+        logits, _, opp_logits = net.apply(params, obs.reshape((-1,) + obs.shape[-3:]) if team else obs)
         action = jax.random.categorical(k_act, logits).astype(jnp.int32)
-        obs2, state2, *_, info = step_batch(env, k_env, state, action, env_params)
-        return (obs2, state2), jnp.mean(jnp.argmax(opp_logits, -1) == info["opponent_action"])
+        obs2, state2, *_, info = step_batch(env, k_env, state, action.reshape(-1, k) if team else action,
+                                            env_params)
+        # a team: each collector's prediction against the first opponent's action
+        label = jnp.repeat(info["opponent_action"][:, 0], k) if team else info["opponent_action"]
+        return (obs2, state2), jnp.mean(jnp.argmax(opp_logits, -1) == label)
 
     _, hits = jax.lax.scan(step, (obs, state), jax.random.split(k_run, steps))
     return jnp.mean(hits)
 
 
-def make_env(s: DCGSettings) -> tuple[DCG, Any]:
-    """The DCG of the run and its params; VNN's needs no history planes."""
+def make_env(s: DCGSettings) -> tuple[DCG | DCGTeam, Any]:
+    """The DCG of the run (the team game with ``collectors > 1``) and its params; VNN's needs no history planes."""
     history_net = s.net != "vnn"
-    env = DCG(grid_size=s.grid_size, total_reward=s.total_reward, strategies=",".join(s.strategies),
-              history=s.history if history_net else 1, obs_history=history_net, reward_area=s.reward_area,
-              min_reward_area=s.min_reward_area, observation=s.observation)
+    options: dict[str, Any] = dict(grid_size=s.grid_size, total_reward=s.total_reward,
+                                   strategies=",".join(s.strategies),
+                                   history=s.history if history_net else 1, obs_history=history_net,
+                                   reward_area=s.reward_area, min_reward_area=s.min_reward_area,
+                                   observation=s.observation)
+    env = DCG(**options) if s.collectors == 1 else DCGTeam(collectors=s.collectors, **options)
     return env, env.make_params(energy=s.energy, max_steps=s.max_steps, energy_range=s.energy_range)
 
 
-def run_metadata(s: DCGSettings, env: DCG, seeds: Iterable[int]) -> dict[str, Any]:
+def run_metadata(s: DCGSettings, env: DCG | DCGTeam, seeds: Iterable[int]) -> dict[str, Any]:
     """The run's metadata (``config.json``, checkpoints) in the current format."""
     seeds = list(seeds)
     return {
@@ -136,6 +158,7 @@ def run_metadata(s: DCGSettings, env: DCG, seeds: Iterable[int]) -> dict[str, An
         # beyond the thesis, written only when set (the thesis' runs' files are unchanged)
         **({} if s.observation == "thesis" else {"observation": s.observation}),
         **({} if s.energy_range is None else {"energy_range": list(s.energy_range)}),
+        **({} if s.collectors == 1 else {"collectors": s.collectors}),
     }
 
 
@@ -146,7 +169,7 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCGSettings, tuple
     ``where`` (:func:`jaxdc.metadata.check_run`)."""
     meta = check_run(meta, "dcg", where)
     setting = {k: meta[k] for k in ("alpha", "energy", "grid_size", "total_reward", "max_steps", "reward_area",
-                                    "min_reward_area", "observation") if meta.get(k) is not None}
+                                    "min_reward_area", "observation", "collectors") if meta.get(k) is not None}
     if meta.get("energy_range") is not None:
         setting["energy_range"] = recorded_pair(meta["energy_range"], "energy_range", where, " [low, high]")
     if meta.get("history"):
@@ -172,13 +195,16 @@ class DCGRun(TrainingRun):
         self.claim(control, run_metadata(s, self.env, control.seeds))  # lock, check a resume: before the build
         check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
         aux = s.has_aux
+        k = s.collectors
         trainer, mesh = spread(a2c.make_train(s.config, self.env, self.env_params, self.net,
-                                              aux_target=(lambda info: info["opponent_action"]) if aux else None),
+                                              aux_target=opponent_labels(k) if aux else None),
                                control, s.config.num_envs)
 
         def evaluate(params, key):
             k_ep, k_acc = jax.random.split(key)
             policy = a2c.make_policy(self.net, params, greedy=s.greedy_eval)
+            if k > 1:  # the one network from each collector's seat
+                policy = copies(policy, k)
             finals = run_episodes(self.env, self.env_params, policy, k_ep, s.eval_episodes)
             acc = opponent_accuracy(self.env, self.env_params, self.net, params, k_acc) if aux else jnp.nan
             return finals, acc

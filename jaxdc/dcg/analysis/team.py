@@ -32,13 +32,17 @@ from jaxdc.dcg.team.state import MAX_COLLECTORS
 TEAMS = ("copies", "greedy_split")
 
 
-def team_game(learned: learned_lib.Learned, collectors: int, teammates: bool = False, **options: Any) -> tuple:
+def team_game(learned: learned_lib.Learned, collectors: int, teammates: bool | None = None,
+              **options: Any) -> tuple:
     """``(env, params)``: the team game of ``collectors`` players in ``learned``'s training setting (its grid,
-    items, strategies, history, rule readings and energy), ``teammates=False`` (the one-collector observation
-    that copies of a one-collector network read); ``options`` go to :class:`~jaxdc.dcg.team.DCGTeam`."""
-    single, params = learned.game()
-    same = {k: getattr(single, k) for k in DCG_SETTINGS if not k.startswith("_")}
-    env = DCGTeam(collectors=collectors, teammates=teammates, grid_size=single.grid_size, **same, **options)
+    items, strategies, history, rule readings and energy); ``teammates`` defaults to the observation ``learned``
+    was trained on (the teammates plane for a team-trained network, ``train.dcg --collectors``; else the
+    one-collector observation that copies of a one-collector network read); ``options`` go to
+    :class:`~jaxdc.dcg.team.DCGTeam`."""
+    game, params = learned.game()
+    same = {k: getattr(game, k) for k in DCG_SETTINGS if not k.startswith("_")}
+    teammates = learned.collectors > 1 if teammates is None else teammates
+    env = DCGTeam(collectors=collectors, teammates=teammates, grid_size=game.grid_size, **same, **options)
     return env, params
 
 
