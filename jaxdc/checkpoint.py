@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import contextlib
 import glob
-import hashlib
 import logging
 import os
 import shutil
@@ -36,7 +35,7 @@ import numpy as np
 import orbax.checkpoint as ocp
 from flax import serialization
 
-from jaxdc.core.tree_check import mismatch, non_finite, slash_path
+from jaxdc.core.tree_check import digest, mismatch, non_finite, slash_path
 
 #: A folder path.
 PathLike = Union[str, "os.PathLike[str]"]
@@ -94,7 +93,7 @@ def save(directory: PathLike, step: int, state: Any, metadata: dict, keep: int =
         with _manager(directory, keep) as mngr:
             mngr.save(int(step), args=ocp.args.Composite(state=ocp.args.StandardSave(tree),
                                                          metadata=ocp.args.JsonSave(dict(metadata)),
-                                                         digest=ocp.args.JsonSave({"sha256": _digest(tree)})))
+                                                         digest=ocp.args.JsonSave({"sha256": digest(tree)})))
             mngr.wait_until_finished()
     except Exception as e:
         _settle_failed_restore()  # the other items' writes end (and are quiet) before their folder is removed
@@ -206,16 +205,6 @@ def restore(directory: PathLike, target: Any, expected: dict | None = None, step
     return serialization.from_state_dict(target, tree), metadata
 
 
-def _digest(tree: Any) -> str:
-    """SHA-256 of a state dict's arrays (path, dtype, shape and bytes of each leaf, in the tree's order)."""
-    h = hashlib.sha256()
-    for path, leaf in jax.tree_util.tree_flatten_with_path(tree)[0]:
-        a = np.ascontiguousarray(np.asarray(leaf))
-        h.update(f"{slash_path(path)}|{a.dtype.str}|{a.shape}|".encode())
-        h.update(a.tobytes())
-    return h.hexdigest()
-
-
 def _check_digest(directory: PathLike, step: int, tree: Any) -> None:
     """:class:`Damaged` unless the restored arrays are the bytes that were saved (checkpoints written before the
     digest was recorded have none to compare)."""
@@ -227,7 +216,7 @@ def _check_digest(directory: PathLike, step: int, tree: Any) -> None:
     except Exception as e:
         raise Damaged(f"checkpoint {directory} step {step}: its digest is unreadable (corrupt?): "
                       f"{_first_line(e)}") from None
-    if saved != _digest(tree):
+    if saved != digest(tree):
         raise Damaged(f"checkpoint {directory} step {step} is damaged: its arrays differ from those saved "
                       "(their SHA-256 digest does not match)")
 

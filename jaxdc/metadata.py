@@ -44,8 +44,11 @@ RUN_KEYS = {
             "init_fraction"),
     "dcg": ("format", "net", "problem", "grid_size", "total_reward", "strategies", "energy", "max_steps", "history",
             "alpha", "reward_area", "min_reward_area", "seed", "seeds", "algorithm", "observation", "energy_range",
-            "collectors"),
+            "collectors", "init_from", "init_sha256"),
 }
+#: Entries of :data:`RUN_KEYS` that record a fact of the run, not a setting (no flag sets them): the SHA-256 of the
+#: parameters a warm start began from (``train.dcg --init-from``).
+RECORDS = ("init_sha256",)
 #: Metadata entries that are counts (ints >= 1), checked on read.
 COUNTS = ("grid_size", "total_reward", "max_steps", "steps", "updates", "min_total_reward", "reward_area",
           "min_reward_area")

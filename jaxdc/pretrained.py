@@ -85,6 +85,13 @@ def json_bool(name: str, value: Any) -> bool:
     return value
 
 
+def json_string(name: str, value: Any) -> str:
+    """A metadata text: a non-empty JSON string."""
+    if not isinstance(value, str) or not value:
+        raise TypeError(f"{name} must be a non-empty string, got {value!r}")
+    return value
+
+
 def json_int(low: int, high: int | None = INT32_MAX) -> SettingCheck:
     """A metadata integer in ``[low, high]`` (``high=None``: unbounded); a float or a bool is refused."""
     return lambda name, value: check_int(name, value, low, high)

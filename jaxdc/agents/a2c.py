@@ -51,6 +51,7 @@ from typing import Any, Callable, NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optax
 from flax import struct
 
@@ -69,6 +70,7 @@ from jaxdc.agents.common import (
     nstep_returns,
 )
 from jaxdc.core.env import Environment, step_batch
+from jaxdc.core.tree_check import check_like
 from jaxdc.core.validate import check_float, check_positive_int
 
 __all__ = ["A2CConfig", "Batch", "TrainState", "Trainer", "Transition", "a2c_loss", "aux_cross_entropy", "huber",
@@ -283,7 +285,7 @@ def _no_heuristics(num_actions: int, agents: int) -> Callable:
 
 
 def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Network, heuristics: Callable | None = None,
-               aux_target: Callable | None = None) -> Trainer:
+               aux_target: Callable | None = None, init_params: Any = None) -> Trainer:
     """Build the A2C trainer of ``net`` on ``env`` with ``env_params`` (validated outside jit).
 
     ``heuristics`` (``env_states [B] -> [B, H, A]``) feeds a network that uses them (ENN).
@@ -293,6 +295,11 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
 
     On a team environment (:func:`team_size` ``k``; the module docs) the observations are ``[B, k, ...]`` and
     ``aux_target`` gives ``[B, k]`` labels; a network that reads heuristics is refused (a team game has none).
+
+    ``init_params`` (beyond the thesis: a warm start, e.g. :func:`jaxdc.nets.transfer.widen_inputs` of a trained
+    network) replaces the network's fresh initialisation; it must have the structure and shapes of ``net``'s
+    parameters (``ValueError``). Everything else -- the optimiser's state, the environments, the keys -- starts
+    as without it.
     """
     if not isinstance(config, A2CConfig):
         raise TypeError(f"config must be an A2CConfig, got {type(config).__name__}")
@@ -320,9 +327,15 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
     value_fn = functools.partial(net.apply, method="value")
     needs_old_policy = config.gae_lambda < 1 or config.clip_eps is not None or config.normalize_advantages
 
+    start = None if init_params is None else check_like(
+        jax.tree_util.tree_map(lambda s: np.zeros(s.shape, s.dtype), jax.eval_shape(
+            lambda k: first_batch(k, env, env_params, net, heuristics, 1, agents)[0], jax.random.PRNGKey(0))),
+        init_params, "init_params", f"a {type(net).__name__} on this environment")
+
     def init(key) -> TrainState:
         params, obs, env_state, k_train = first_batch(key, env, env_params, net, heuristics, config.num_envs,
                                                       agents)
+        params = params if start is None else start
         return TrainState(params, tx.init(params), env_state, obs, k_train, jnp.int32(0))
 
     def env_step(params, carry, _):

@@ -11,6 +11,7 @@ Examples::
     python -m eval.dcg render --net omn_conn --strategy patrol --seed 3 --greedy --reward-area 2
     python -m eval.dcg optimum --episodes 2000                      # the full-information bound, 10 items
     python -m eval.dcg energies --checkpoint NET --energies 8 10 12 15 20 25   # one collector per energy
+    python -m eval.dcg --net omn_conn_strong --collectors 2          # two copies in the team game
 
 An evaluation writes its JSON atomically to ``--out`` (default
 ``results/dcg``); ``--json`` prints exactly one JSON object. Every JSON is
@@ -66,13 +67,17 @@ from jaxdc.dcg.analysis.report import (
     optimum_text,
     report,
     result_name,
+    team_report,
+    team_result_name,
 )
+from jaxdc.dcg.analysis.team import evaluate_learned as evaluate_learned_team
 from jaxdc.dcg.env import CAPTURES, DCG, OPPONENT_STARTS, OUTCOMES, PATROL_TARGETS
 from jaxdc.dcg.exact.machine import MAX_GRID_SIZE
 from jaxdc.dcg.exact.many_items import sampled_bound
 from jaxdc.dcg.exact.team import FOG_TARGETS
 from jaxdc.dcg.exact.team import sampled_bound as team_bound
 from jaxdc.dcg.opponents import CHASE_TIES, DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
+from jaxdc.dcg.team.state import MAX_COLLECTORS
 from jaxdc.io import (
     atomic_write_json,
     atomic_write_set,
@@ -163,6 +168,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rpe-zero", choices=("exclude", "zero"), default="exclude",
                    help="RPE of a game that used no energy: left out (default) or 0")
     p.add_argument("--no-bound", action="store_true", help="with --reward-area: skip the exact bound")
+    p.add_argument("--collectors", type=integer("--collectors", low=1, high=MAX_COLLECTORS), default=None,
+                   help="play the team game (beyond the thesis): a one-collector network as K copies; a network "
+                        "trained as a team plays its own size (the default)")
     p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
     p.add_argument("--out", default=RESULTS, help="folder for the result JSON")
     p.set_defaults(run=_evaluate, error=p.error)
@@ -294,24 +302,33 @@ def _evaluate(args, command) -> int:
     enable_compilation_cache()
     try:
         learned = _load(s.checkpoint, s.net)
+        team = s.collectors is not None or learned.collectors > 1
+        if team and s.reward_area is not None:
+            raise ValueError("--reward-area plays the one-collector game of Figs. 5.10-5.12; a team (--collectors, "
+                             "or a network trained as a team) plays the standard game")
         if not s.json:
             print(f"Evaluating {learned.describe()}: {s.episodes} games, seed {s.seed} ...", file=sys.stderr)
-        r = evaluate(learned, episodes=s.episodes, seed=s.seed, energy=s.energy, strategies=s.strategies,
-                     reward_area=s.reward_area, max_steps=s.max_steps, greedy=s.greedy, rpe_zero=s.rpe_zero,
-                     bound=s.bound)
+        if team:
+            r = evaluate_learned_team(learned, s.collectors, episodes=s.episodes, seed=s.seed, greedy=s.greedy,
+                                      energy=s.energy, strategies=s.strategies, max_steps=s.max_steps)
+        else:
+            r = evaluate(learned, episodes=s.episodes, seed=s.seed, energy=s.energy, strategies=s.strategies,
+                         reward_area=s.reward_area, max_steps=s.max_steps, greedy=s.greedy, rpe_zero=s.rpe_zero,
+                         bound=s.bound)
     except (TypeError, ValueError) as e:
         args.error(str(e))
     r["command"] = command
     line = json_text(r, indent=None)  # strict: refused before anything is written
     try:  # the name depends on the setting played, so it is known only now (still before anything is written)
-        target = check_output_path(os.path.join(s.out, result_name(r)), "--out file", _checkpoint_inputs(args))
+        name = team_result_name(r) if team else result_name(r)
+        target = check_output_path(os.path.join(s.out, name), "--out file", _checkpoint_inputs(args))
     except ValueError as e:
         args.error(str(e))
     path = atomic_write_json(target, {**r, "provenance": provenance()})
     if s.json:
         print(line)
     else:
-        print(report(r))
+        print(team_report(r) if team else report(r))
         print(f"written to {path}", file=sys.stderr)
     return 0
 

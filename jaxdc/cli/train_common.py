@@ -165,9 +165,10 @@ def set_field_defaults(p: argparse.ArgumentParser, fields: Iterable[tuple[str, A
 def _run_fields(settings: Any, seeds: tuple[int, ...], problem: str) -> list[tuple[str, Any]]:
     """The settings fields a run's ``config.json`` records (:data:`jaxdc.metadata.RUN_KEYS`), its algorithm's
     fields and its seeds."""
-    from jaxdc.metadata import RUN_KEYS
+    from jaxdc.metadata import RECORDS, RUN_KEYS
 
-    recorded = [k for k in RUN_KEYS[problem] if k not in ("format", "problem", "seed", "seeds", "algorithm")]
+    recorded = [k for k in RUN_KEYS[problem]
+                if k not in ("format", "problem", "seed", "seeds", "algorithm", *RECORDS)]
     out = [(k, getattr(settings, k)) for k in recorded]
     out += [(k, v) for k, v in dataclasses.asdict(settings.config).items() if k != "aux_coef" or problem == "dcp"]
     return out + ([("seeds", list(seeds))] if len(seeds) > 1 else [("seed", seeds[0])])

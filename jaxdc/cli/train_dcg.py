@@ -32,7 +32,10 @@ energy among the integers of the range, and ``--observation general`` shows
 the collector its budget (docs/generalisation.md): one network for every
 maximum energy. ``--collectors K`` (beyond the thesis) trains one network shared by
 the ``K`` collectors of the team game (:class:`jaxdc.dcg.team.DCGTeam`) on the team
-reward (:mod:`jaxdc.training.dcg`).
+reward (:mod:`jaxdc.training.dcg`). ``--init-from NET|PATH`` (beyond the thesis) starts
+from a trained network of the same kind instead of a fresh initialisation (a
+one-collector network starting a team: the team starts as its copies,
+:func:`jaxdc.training.dcg.start_params`).
 
 The learner options of ``train.dcp`` (``--gae-lambda``, ``--clip-eps``,
 ``--epochs``, ``--minibatches``, ``--normalize-advantages``,
@@ -103,6 +106,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="k, the previous agent planes read by IMNN/EMNN/OMN+CoNN (>= 1; VNN ignores it)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=100, help="episode step cap")
     p.add_argument("--out", default=None, help="run folder (default runs/dcg-NET-eENERGY-sSEED)")
+    p.add_argument("--init-from", default=None, metavar="NET|PATH",
+                   help="start from a trained network of the same kind (a shipped name, a .msgpack or a run folder) "
+                        "instead of a fresh initialisation; a one-collector network starting a team (--collectors) "
+                        "reads the teammates plane with zero weights, so the team starts as its copies. Not in "
+                        "the thesis")
     p.add_argument("--ship", nargs="?", const="", default=None, metavar="PATH",
                    help="after training, write the final parameters with jaxdc.pretrained.save "
                         "(default jaxdc/assets/dcg/NET.msgpack)")
@@ -139,7 +147,7 @@ def settle(args):
                            min_reward_area=args.min_reward_area, eval_episodes=args.eval_episodes,
                            greedy_eval=args.greedy_eval, observation=args.observation,
                            energy_range=None if args.energy_range is None else tuple(args.energy_range),
-                           collectors=args.collectors)
+                           collectors=args.collectors, init_from=args.init_from)
     energy = f"{args.energy:g}" if args.energy_range is None else "{:g}-{:g}".format(*args.energy_range)
     team = "" if args.collectors == 1 else f"-k{args.collectors}"
     out = args.out or os.path.join("runs", f"dcg-{args.net}{team}-e{energy}-s{seed_tag(args)}")
@@ -170,12 +178,16 @@ def main(argv=None) -> int:
     parser = build_parser()
 
     def check_ship(args: argparse.Namespace) -> None:
+        out = settle(args)[1].out
+        start = {"--init-from": pretrained.read_paths(args.init_from, "dcg") if args.init_from else None}
+        for path in run_outputs(out):  # the run folder must not be the network it starts from
+            check_output_path(path, "--out", start)
         if args.ship is not None:
             blob = ship_path(args)
             blob = blob[: -len(".msgpack")] if blob.endswith(".msgpack") else blob
-            out = settle(args)[1].out
             for path in (blob + ".msgpack", blob + ".json"):
-                check_output_path(path, "--ship", {"--config": config_file(args.config), "--out": run_outputs(out)})
+                check_output_path(path, "--ship", {"--config": config_file(args.config), "--out": run_outputs(out),
+                                                   **start})
 
     trained = train_from_command_line(parser, argv, "dcg", settings_from_metadata, settle, DCGRun, check_ship)
     if trained is None:  # --list-configs

@@ -6,11 +6,13 @@ deep inside flax (or, worse, broadcast silently); :func:`check_like` compares
 the loaded pytree with freshly initialised parameters first. :func:`mismatch`
 is the comparison itself, which :mod:`jaxdc.checkpoint` also uses on a
 restored training state; :func:`non_finite` finds the float leaves that hold a
-NaN or an infinity (a parameter file or checkpoint must hold none).
+NaN or an infinity (a parameter file or checkpoint must hold none); :func:`digest` fingerprints a pytree's
+arrays (a checkpoint's integrity check, the record of the network a run started from).
 """
 
 from __future__ import annotations
 
+import hashlib
 from typing import Any, Callable, NamedTuple
 
 import jax
@@ -78,3 +80,13 @@ def check_like(template: Any, params: Any, source: str, what: str, hint: str = "
         raise ValueError(f"{source}: parameter {m.key} has shape {m.got}, expected {m.want} for {what}"
                          + (f" ({hint})" if hint else ""))
     return jax.tree_util.tree_map(lambda x: jnp.asarray(x, jnp.float32), params)
+
+
+def digest(tree: Any) -> str:
+    """SHA-256 of a pytree's arrays (path, dtype, shape and bytes of each leaf, in the tree's order)."""
+    h = hashlib.sha256()
+    for path, leaf in jax.tree_util.tree_flatten_with_path(tree)[0]:
+        a = np.ascontiguousarray(np.asarray(leaf))
+        h.update(f"{slash_path(path)}|{a.dtype.str}|{a.shape}|".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()

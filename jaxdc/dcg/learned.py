@@ -79,7 +79,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
     from jaxdc.core.validate import SEED_MAX
     from jaxdc.dcg import env as dcg_env
     from jaxdc.dcg.opponents import CHASE_TIES
-    from jaxdc.pretrained import json_bool, json_choice, json_int, json_number, json_object, optional
+    from jaxdc.pretrained import json_bool, json_choice, json_int, json_number, json_object, json_string, optional
 
     options = {"history_fill": json_choice(dcg_env.HISTORY_FILLS), "items_on_base": json_bool,
                "opponent_start": json_choice(dcg_env.OPPONENT_STARTS),
@@ -92,7 +92,8 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "strategies": _strategies, "history": json_int(0), "chase_tie": json_choice(CHASE_TIES),
         "obs_history": json_bool, "alpha": optional(json_number(0.0)), "seed": json_int(0, SEED_MAX),
         "steps": json_int(1, None), "updates": json_int(1, None), "energy_range": optional(_energy_range),
-        "collectors": json_int(1, MAX_COLLECTORS),
+        "collectors": json_int(1, MAX_COLLECTORS), "init_from": optional(json_string),
+        "init_sha256": optional(json_string),
         **options, "env": json_object(options),
     }
 

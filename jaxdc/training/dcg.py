@@ -33,15 +33,19 @@ from jaxdc.core.energy import check_energy_range
 from jaxdc.core.env import step_batch
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import episode_summary
+from jaxdc.core.tree_check import digest
 from jaxdc.core.validate import check_choice, check_int
+from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.env import DCG, MIN_RANGE_ENERGY, OBSERVATIONS, OUTCOMES
 from jaxdc.dcg.learned import opponent_labels
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.dcg.team import DCGTeam
+from jaxdc.dcg.team.observation import TEAMMATES_PLANE
 from jaxdc.dcg.team.policies import copies
 from jaxdc.dcg.team.state import MAX_COLLECTORS
 from jaxdc.metadata import FORMAT, check_run, recorded_pair, run_settings
 from jaxdc.nets import DCG_NETS, build
+from jaxdc.nets.transfer import widen_inputs
 from jaxdc.training.fields import SettingError
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
 
@@ -73,6 +77,9 @@ class DCGSettings:
         only recorded.
       collectors: ``k``, 1 (the thesis' game) .. :data:`~jaxdc.dcg.team.state.MAX_COLLECTORS`; with ``k > 1`` the
         team game (module docs; beyond the thesis).
+      init_from: ``None`` (a fresh initialisation, as the thesis) or a trained network of the same kind -- a
+        shipped name, a ``.msgpack`` or a ``train.dcg`` run folder -- whose parameters start the run (a warm
+        start, beyond the thesis: :func:`start_params`).
     """
 
     net: str
@@ -91,10 +98,13 @@ class DCGSettings:
     observation: str = "thesis"
     energy_range: tuple[float, float] | None = None
     collectors: int = 1
+    init_from: str | None = None
 
     def __post_init__(self) -> None:
         check_choice("observation", self.observation, OBSERVATIONS)
         check_int("collectors", self.collectors, 1, MAX_COLLECTORS)
+        if self.init_from is not None and (not isinstance(self.init_from, str) or not self.init_from):
+            raise TypeError(f"init_from must be a network's name or path (a non-empty string), got {self.init_from!r}")
         if self.energy_range is not None:
             check_energy_range(self.energy_range, MIN_RANGE_ENERGY)
 
@@ -144,7 +154,40 @@ def make_env(s: DCGSettings) -> tuple[DCG | DCGTeam, Any]:
     return env, env.make_params(energy=s.energy, max_steps=s.max_steps, energy_range=s.energy_range)
 
 
-def run_metadata(s: DCGSettings, env: DCG | DCGTeam, seeds: Iterable[int]) -> dict[str, Any]:
+def start_params(s: DCGSettings, env: DCG | DCGTeam, env_params: Any, net: Any) -> tuple[Any, str] | None:
+    """``(params, digest)`` that start the run of ``s`` (``None`` without ``init_from``): the parameters of the
+    network ``s.init_from`` (:func:`jaxdc.dcg.learned.load`), and their SHA-256 (:func:`jaxdc.core.tree_check.digest`,
+    recorded as ``init_sha256``).
+
+    The source must be the run's network, trained on the same grid, history and observation, by one collector or
+    by a team of the run's size. A one-collector network starting a team gets zero weights on the teammates plane
+    (:func:`jaxdc.nets.transfer.widen_inputs` at :data:`~jaxdc.dcg.team.observation.TEAMMATES_PLANE`): the team
+    starts as copies of it (:func:`jaxdc.dcg.team.policies.copies`). Anything else is a ``ValueError`` naming
+    ``init_from``."""
+    if s.init_from is None:
+        return None
+    source = learned_lib.load(s.init_from)
+    where = f"init_from={s.init_from!r} ({source.source})"
+    trained = source.setting()
+    history = trained["history"] if s.net != "vnn" else s.history
+    ours = {"net": (source.net_name, s.net), "grid_size": (trained["grid_size"], s.grid_size),
+            "history": (history, s.history),
+            "observation": (source.metadata.get("observation", "thesis"), s.observation)}
+    for key, (theirs, wanted) in ours.items():
+        if theirs != wanted:
+            raise ValueError(f"{where}: its {key} is {theirs!r}; this run's is {wanted!r}")
+    if source.collectors not in (1, s.collectors):
+        raise ValueError(f"{where}: trained by a team of {source.collectors} collectors; it starts a run of one "
+                         f"collector or of {source.collectors}, not of {s.collectors}")
+    obs = jnp.zeros((1,) + tuple(env.observation_shape(env_params)[-3:]), jnp.float32)
+    template = jax.eval_shape(net.init, jax.random.PRNGKey(0), obs, jnp.zeros((1, 1, net.num_actions), jnp.float32))
+    extra = env.state_channels - learned_lib.state_channels(source.metadata)
+    params = widen_inputs(source.params, template, TEAMMATES_PLANE, extra, where)
+    return params, digest(params)
+
+
+def run_metadata(s: DCGSettings, env: DCG | DCGTeam, seeds: Iterable[int],
+                 init_sha256: str | None = None) -> dict[str, Any]:
     """The run's metadata (``config.json``, checkpoints) in the current format."""
     seeds = list(seeds)
     return {
@@ -159,6 +202,7 @@ def run_metadata(s: DCGSettings, env: DCG | DCGTeam, seeds: Iterable[int]) -> di
         **({} if s.observation == "thesis" else {"observation": s.observation}),
         **({} if s.energy_range is None else {"energy_range": list(s.energy_range)}),
         **({} if s.collectors == 1 else {"collectors": s.collectors}),
+        **({} if s.init_from is None else {"init_from": s.init_from, "init_sha256": init_sha256}),
     }
 
 
@@ -169,7 +213,8 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCGSettings, tuple
     ``where`` (:func:`jaxdc.metadata.check_run`)."""
     meta = check_run(meta, "dcg", where)
     setting = {k: meta[k] for k in ("alpha", "energy", "grid_size", "total_reward", "max_steps", "reward_area",
-                                    "min_reward_area", "observation", "collectors") if meta.get(k) is not None}
+                                    "min_reward_area", "observation", "collectors", "init_from")
+               if meta.get(k) is not None}
     if meta.get("energy_range") is not None:
         setting["energy_range"] = recorded_pair(meta["energy_range"], "energy_range", where, " [low, high]")
     if meta.get("history"):
@@ -192,12 +237,16 @@ class DCGRun(TrainingRun):
         if s.config.aux_lr is not None and s.net != "omn_conn":
             raise SettingError(f"{{0}} sets OMN's learning rate and applies to {{1}} omn_conn only, not "
                                f"{SettingError.text(repr(s.net))}", "aux_lr", "net")
-        self.claim(control, run_metadata(s, self.env, control.seeds))  # lock, check a resume: before the build
+        start = start_params(s, self.env, self.env_params, self.net)  # the source is read before any work
+        init_params, sha = (None, None) if start is None else start
+        meta = run_metadata(s, self.env, control.seeds, sha)
+        self.claim(control, meta)  # lock, check a resume: before the build
         check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
         aux = s.has_aux
         k = s.collectors
         trainer, mesh = spread(a2c.make_train(s.config, self.env, self.env_params, self.net,
-                                              aux_target=opponent_labels(k) if aux else None),
+                                              aux_target=opponent_labels(k) if aux else None,
+                                              init_params=init_params),
                                control, s.config.num_envs)
 
         def evaluate(params, key):
@@ -210,7 +259,7 @@ class DCGRun(TrainingRun):
             return finals, acc
 
         self._evaluate = jax.jit(jax.vmap(evaluate) if control.multi else evaluate)
-        super().__init__(control, RunSpec(s.config, trainer, mesh, run_metadata(s, self.env, control.seeds),
+        super().__init__(control, RunSpec(s.config, trainer, mesh, meta,
                                           self.evaluate, LOSS_METRICS, CSV_FIELDS))
         check_evaluation_fits(self, self._evaluate)
 

@@ -55,6 +55,8 @@ class Preset:
     greedy_eval: bool | None = None
     reward_area: int | None = None
     min_reward_area: int | None = None
+    collectors: int | None = None
+    init_from: str | None = None
 
     def fields(self) -> dict[str, Any]:
         """``{field: value}`` of the settings the preset sets, in order."""
@@ -134,10 +136,17 @@ DCG_STRONG["omn_conn_strong_areas"] = Preset(
 DCG_GENERAL = {"omn_conn_general": Preset(
     "dcg", "5.8, 5.9 (beyond the thesis: one network for maximum energies 8-25, the general observation)",
     "omn_conn", observation="general", energy_range=(8.0, 25.0), total_steps=5_000_000, **DCG_STRONG_RECIPE)}
+#: The two-collector team (issue 29; the team game the thesis' conclusion to chapter 5 proposes, beyond the thesis):
+#: OMN+CoNN shared by two collectors on the team reward, started from ``omn_conn_strong`` (the team starts as two
+#: copies of it: :func:`jaxdc.training.dcg.start_params`) and trained with the strong recipe at lr 3e-4.
+DCG_TEAM = {"team2": Preset(
+    "dcg", "the team game, two collectors (beyond the thesis: started from omn_conn_strong)", "omn_conn",
+    total_steps=2_000_000, **{**DCG_STRONG_RECIPE, "lr": 3e-4, "eval_every": 500_000}, collectors=2,
+    init_from="omn_conn_strong")}
 #: The shipped DCP presets (exported by ``train.ship``).
 ALL = {**SHIPPED, **BEYOND}
 #: Every named configuration.
-EVERY = {**ALL, **DCG_STRONG, **DCG_GENERAL}
+EVERY = {**ALL, **DCG_STRONG, **DCG_GENERAL, **DCG_TEAM}
 
 
 def names(problem: str) -> list[str]:

@@ -21,7 +21,7 @@ def _settle(module, argv, problem):
 
 
 def test_every_preset_is_a_named_config_of_its_problem():
-    assert set(presets.names("dcg")) == set(presets.DCG_STRONG) | set(presets.DCG_GENERAL)
+    assert set(presets.names("dcg")) == set(presets.DCG_STRONG) | set(presets.DCG_GENERAL) | set(presets.DCG_TEAM)
     assert "enn_ppo" in presets.names("dcp")
     assert set(presets.names("dcp")) == set(presets.ALL)
 
@@ -52,6 +52,7 @@ def test_a_dcp_run_config_retrains_the_same_run(argv, tmp_path):
     ["--net", "emnn", "--alpha", "0.0001", "--energy", "10", "--history", "4", "--strategies", "patrol,with_fog"],
     ["--net", "omn_conn", "--omn-lr", "1e-3", "--reward-area", "3", "--min-reward-area", "2", "--seed", "9"],
     ["--net", "vnn", "--envs", "32", "--t-max", "32", "--gae-lambda", "0.95"],
+    ["--net", "omn_conn", "--collectors", "2", "--init-from", "omn_conn_strong"],
 ])
 def test_a_dcg_run_config_retrains_the_same_run(argv, tmp_path):
     settings, control = _settle(train_dcg, argv, "dcg")

@@ -42,11 +42,16 @@ def _setting_text(x) -> str:
     return x if isinstance(x, str) else f"{x:g}"
 
 
+def _strategy_set(strategies) -> str:
+    """A strategy set in a file name: ``standard``, ``double_blind`` or the names joined by ``-``."""
+    return "standard" if tuple(strategies) == STANDARD_STRATEGIES else (
+        "double_blind" if tuple(strategies) == DOUBLE_BLIND_STRATEGIES else "-".join(strategies))
+
+
 def result_name(r: dict) -> str:
     """The file name of an evaluation: ``eval_<net>[_a<alpha>]_e<energy>_<set>[_area<S>][_greedy]_s<seed>.json``."""
     s = r["setting"]
-    sets = "standard" if tuple(s["strategies"]) == STANDARD_STRATEGIES else (
-        "double_blind" if tuple(s["strategies"]) == DOUBLE_BLIND_STRATEGIES else "-".join(s["strategies"]))
+    sets = _strategy_set(s["strategies"])
     parts = [f"eval_{r['net']}"]
     if r["net"] == "emnn" and r.get("alpha") is not None:
         parts.append(f"a{r['alpha']:g}")
@@ -57,6 +62,30 @@ def result_name(r: dict) -> str:
         parts.append("greedy")
     parts.append(f"s{r['seed']}")
     return "_".join(parts) + ".json"
+
+
+def team_result_name(r: dict) -> str:
+    """The file name of a team evaluation (:func:`jaxdc.dcg.analysis.team.evaluate_learned`):
+    ``team_<net-file>_k<K>_e<energy>_<set>[_greedy]_s<seed>.json``."""
+    s = r["setting"]
+    stem = os.path.basename(str(r["source"]).rstrip(os.sep))
+    stem = stem[: -len(".msgpack")] if stem.endswith(".msgpack") else stem
+    return "_".join([f"team_{stem}", f"k{r['collectors']}", f"e{_setting_text(s['energy'])}",
+                     _strategy_set(s["strategies"])] + (["greedy"] if r["greedy"] else []) + [f"s{r['seed']}"]) \
+        + ".json"
+
+
+def team_report(r: dict) -> str:
+    """The text report of a team evaluation: the team reward, the games cleared, the captures, per strategy."""
+    who = (f"{r['collectors']} copies of {r['net']}" if r["team"] == "copies"
+           else f"{r['net']} trained as a team of {r['collectors']}")
+    reward = r["reward"]
+    spread = "" if reward["sd"] is None else f" ± {reward['se']:.3f} SE (SD {reward['sd']:.3f})"
+    lines = [f"{who}, {r['episodes']} games: team reward {reward['mean']:.3f}{spread}",
+             f"cleared {100 * r['cleared']:.1f}% of games; {100 * r['caught_collectors']:.1f}% of collectors caught, "
+             f"a capture in {100 * r['any_caught']:.1f}% of games"]
+    lines += [f"  {name}: {UNDEFINED if v is None else f'{v:.3f}'}" for name, v in r["per_strategy"].items()]
+    return "\n".join(lines)
 
 
 def _line(r: dict, bound: float | None) -> str:

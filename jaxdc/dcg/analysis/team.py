@@ -8,7 +8,9 @@ one-collector network, each seeing the game as in the one-collector observation,
 :func:`evaluate_team` plays a team policy and summarises the games: the team reward (mean, SD, SE), the
 share of games cleared, and the capture rate (the share of collectors caught, and the share of games in which
 at least one is). With one collector, ``copies`` plays exactly the games of
-:func:`jaxdc.dcg.evaluate.evaluate_network` for the same key.
+:func:`jaxdc.dcg.evaluate.evaluate_network` for the same key. :func:`evaluate_learned` is ``python -m eval.dcg
+--collectors K``: a one-collector network as ``K`` copies, or a team-trained network (``train.dcg --collectors``)
+in its own team.
 """
 
 from __future__ import annotations
@@ -33,13 +35,19 @@ TEAMS = ("copies", "greedy_split")
 
 
 def team_game(learned: learned_lib.Learned, collectors: int, teammates: bool | None = None,
+              energy: float | None = None, strategies: Any = None, max_steps: int | None = None,
               **options: Any) -> tuple:
     """``(env, params)``: the team game of ``collectors`` players in ``learned``'s training setting (its grid,
-    items, strategies, history, rule readings and energy); ``teammates`` defaults to the observation ``learned``
-    was trained on (the teammates plane for a team-trained network, ``train.dcg --collectors``; else the
-    one-collector observation that copies of a one-collector network read); ``options`` go to
-    :class:`~jaxdc.dcg.team.DCGTeam`."""
-    game, params = learned.game()
+    items, strategies, history, rule readings and energy), with ``energy``, ``strategies`` and ``max_steps``
+    changed where given (:meth:`~jaxdc.dcg.learned.Learned.game`); ``teammates`` defaults to the observation
+    ``learned`` was trained on (the teammates plane for a team-trained network, ``train.dcg --collectors``; else
+    the one-collector observation that copies of a one-collector network read); ``options`` go to
+    :class:`~jaxdc.dcg.team.DCGTeam`. A team-trained network plays only its own team size (``ValueError``)."""
+    check_int("collectors", collectors, 1, MAX_COLLECTORS)
+    if learned.collectors > 1 and collectors != learned.collectors:
+        raise ValueError(f"collectors={collectors}: {learned.net_name} ({learned.source}) was trained by a team of "
+                         f"{learned.collectors} collectors and plays in one of {learned.collectors}")
+    game, params = learned.game(energy=energy, strategies=strategies, max_steps=max_steps)
     same = {k: getattr(game, k) for k in DCG_SETTINGS if not k.startswith("_")}
     teammates = learned.collectors > 1 if teammates is None else teammates
     env = DCGTeam(collectors=collectors, teammates=teammates, grid_size=game.grid_size, **same, **options)
@@ -68,6 +76,25 @@ def evaluate_team(env: DCGTeam, params: Any, policy: Callable, key: jax.Array, e
         "per_strategy": {name: float(reward[strategy == i].mean()) if np.any(strategy == i) else None
                          for i, name in enumerate(env.strategies)},
     }
+
+
+def evaluate_learned(learned: learned_lib.Learned, collectors: int | None = None, episodes: int = 10_000,
+                     seed: int = 0, greedy: bool = False, energy: float | None = None, strategies: Any = None,
+                     max_steps: int | None = None) -> dict:
+    """``learned`` as a team (``python -m eval.dcg --collectors K``): a one-collector network as ``collectors``
+    copies (:func:`~jaxdc.dcg.team.policies.copies`, default one), a team-trained network in its own team
+    (``collectors`` ``None`` or its size), on ``episodes`` games of ``PRNGKey(seed)`` in its training setting
+    with the given changes. The summary of :func:`evaluate_team`, with what was played."""
+    k = learned.collectors if collectors is None else check_int("collectors", collectors, 1, MAX_COLLECTORS)
+    env, params = team_game(learned, k, energy=energy, strategies=strategies, max_steps=max_steps)
+    out = evaluate_team(env, params, copies(learned.policy(greedy), k), jax.random.PRNGKey(seed), episodes)
+    setting = learned.setting()
+    return {"net": learned.net_name, "source": learned.source,
+            "team": "copies" if learned.collectors == 1 else "trained", "seed": seed, "greedy": bool(greedy),
+            "setting": {"energy": setting["energy"] if energy is None else energy,
+                        "strategies": list(env.strategies),
+                        "max_steps": setting["max_steps"] if max_steps is None else max_steps},
+            **out}
 
 
 def team_table(learned: learned_lib.Learned, collectors: tuple[int, ...] = (1, 2, 3, 4), episodes: int = 10_000,

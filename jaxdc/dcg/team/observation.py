@@ -29,6 +29,10 @@ from jaxdc.dcg.team.state import TeamState, collector_view
 if TYPE_CHECKING:
     from jaxdc.dcg.env import DCG
 
+#: The teammates plane's channel: after ``M^item`` and ``M^agent`` (where a network trained without it is widened,
+#: :func:`jaxdc.nets.transfer.widen_inputs`).
+TEAMMATES_PLANE = 2
+
 
 class TeamObservation:
     """The observation methods of :class:`jaxdc.dcg.team.env.DCGTeam`."""
@@ -54,8 +58,8 @@ class TeamObservation:
         the teammates plane in ``[0, max energy]`` (scaled as ``M^agent``)."""
         low, high = self.single.observation_bounds(params)
         if self.teammates:
-            low = np.insert(low, 2, 0.0, axis=-1)
-            high = np.insert(high, 2, high[..., 1], axis=-1)
+            low = np.insert(low, TEAMMATES_PLANE, 0.0, axis=-1)
+            high = np.insert(high, TEAMMATES_PLANE, high[..., 1], axis=-1)
         shape = self.observation_shape(params)
         return np.broadcast_to(low, shape).copy(), np.broadcast_to(high, shape).copy()
 
