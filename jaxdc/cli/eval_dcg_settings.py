@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from jaxdc.core.validate import value_text
 from jaxdc.dcg.analysis.cache import EvaluationCache
 from jaxdc.dcg.analysis.experiment import ExperimentSettings
 from jaxdc.dcg.analysis.figures import EXPERIMENTS, FIGURES
@@ -111,7 +112,8 @@ class OptimumSettings:
     @classmethod
     def from_args(cls, args) -> "OptimumSettings":
         if not (math.isinf(args.energy) or args.energy == math.floor(args.energy)):
-            raise ValueError(f"--energy must be a whole number or inf for the exact bound, got {args.energy:g}")
+            raise ValueError("--energy must be a whole number or inf for the exact bound, got "
+                             + value_text(args.energy))
         game = dict(grid_size=args.grid_size, total_reward=args.total_reward, history=1, obs_history=False,
                     strategies=_strategy_set(args), opponent_start=args.opponent_start,
                     patrol_target=args.patrol_target, items_on_base=not args.no_items_on_base,

@@ -62,6 +62,7 @@ from jaxdc.core.energy import MAX_FINITE_ENERGY
 from jaxdc.core.paths import PATH_RISK
 from jaxdc.core.sampling import MAX_TOTAL_REWARD
 from jaxdc.core.stats import format_number
+from jaxdc.core.validate import value_text
 from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.analysis.best_learner import best_row
@@ -237,7 +238,7 @@ def check_learned_flags(args, spec: TableSpec | None) -> None:
         raise ValueError("--greedy applies to a learned network; none is evaluated here "
                          f"({'--no-learned' if args.no_learned else 'Table ' + spec.name if spec else args.policy})")
     if args.epsilon is not None and net != "eqn":
-        raise ValueError(f"--epsilon {args.epsilon:g} is EQN's exploration; it does not apply to "
+        raise ValueError(f"--epsilon {value_text(args.epsilon)} is EQN's exploration; it does not apply to "
                          f"{net or 'the navigators'} (use --policy eqn or --table 4.10)")
 
 
@@ -338,7 +339,7 @@ def main(argv=None) -> int:
             try:
                 dcp_env.check_energy(args.energy)
             except (TypeError, ValueError) as e:
-                raise ValueError(f"--energy {args.energy[0]:g} {args.energy[1]:g}: {e}") from None
+                raise ValueError(f"--energy {value_text(args.energy[0])} {value_text(args.energy[1])}: {e}") from None
         if spec:
             check_output_folder(args.out or DEFAULT_OUT, "--out",
                                 files=(f"table_{spec.name}.json", f"table_{spec.name}.md"),

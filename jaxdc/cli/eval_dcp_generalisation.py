@@ -28,6 +28,7 @@ from jaxdc import pretrained
 from jaxdc.cli.args import positive_int, seed
 from jaxdc.cli.runner import command_line
 from jaxdc.core.generators import GENERATORS
+from jaxdc.core.validate import value_text
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.analysis import generalisation as gen
 from jaxdc.io import atomic_write_set, check_output_folder, enable_compilation_cache, json_text
@@ -75,7 +76,8 @@ def budgets(values: list[float] | None) -> tuple[tuple[float, float], ...]:
     pairs = tuple((float(values[i]), float(values[i + 1])) for i in range(0, len(values), 2))
     for e0, e1 in pairs:
         if not (1 <= e0 <= e1 < 2**24) or e0 != int(e0) or e1 != int(e1):
-            raise ValueError(f"--budgets: each pair must be whole numbers 1 <= INIT <= MAX, got {e0:g} {e1:g}")
+            raise ValueError("--budgets: each pair must be whole numbers 1 <= INIT <= MAX, got "
+                             f"{value_text(e0)} {value_text(e1)}")
     return pairs
 
 

@@ -21,7 +21,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from jaxdc.core.validate import check_float
+from jaxdc.core.validate import check_float, value_text
 
 #: The largest finite budget: float32 counts every unit exactly up to 2**24, so ``energy - 1`` always lowers it.
 MAX_FINITE_ENERGY = float(2**24)
@@ -73,9 +73,9 @@ def check_energy_range(energy_range: Any, minimum: float = 2.0, name: str = "ene
     high = check_float(f"{name} high", high, minimum, MAX_FINITE_ENERGY)
     for which, v in (("low", low), ("high", high)):
         if v != int(v):
-            raise ValueError(f"{name} {which} must be a whole number, got {v:g}")
+            raise ValueError(f"{name} {which} must be a whole number, got {value_text(v)}")
     if low > high:
-        raise ValueError(f"{name}: low ({low:g}) must not exceed high ({high:g})")
+        raise ValueError(f"{name}: low ({value_text(low)}) must not exceed high ({value_text(high)})")
     return low, high
 
 

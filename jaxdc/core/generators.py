@@ -33,7 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdc.core import grid
-from jaxdc.core.validate import SEED_MAX, check_float, check_int
+from jaxdc.core.validate import SEED_MAX, check_float, check_int, value_text
 
 #: The largest risk a generated map may hold: a risk of 1 makes a cell a certain loss (Dijkstra's weight is
 #: then infinite), which no generator here produces.
@@ -44,7 +44,7 @@ def _check_risk_range(owner: str, low: float, high: float) -> tuple[float, float
     low = check_float(f"{owner}.low", low, 0.0, MAX_GENERATED_RISK)
     high = check_float(f"{owner}.high", high, 0.0, MAX_GENERATED_RISK)
     if low > high:
-        raise ValueError(f"{owner}: low ({low:g}) must not exceed high ({high:g})")
+        raise ValueError(f"{owner}: low ({value_text(low)}) must not exceed high ({value_text(high)})")
     return low, high
 
 
@@ -163,7 +163,8 @@ class Bumps(RiskGenerator):
         check_float("Bumps.min_width", self.min_width, 0.0, 1e3, low_open=True)
         check_float("Bumps.max_width", self.max_width, 0.0, 1e3, low_open=True)
         if self.min_width > self.max_width:
-            raise ValueError(f"Bumps: min_width ({self.min_width:g}) must not exceed max_width ({self.max_width:g})")
+            raise ValueError(f"Bumps: min_width ({value_text(self.min_width)}) must not exceed max_width "
+                             f"({value_text(self.max_width)})")
         check_float("Bumps.cap", self.cap, 0.0, MAX_GENERATED_RISK)
         check_float("Bumps.floor", self.floor, 0.0, self.cap)
 

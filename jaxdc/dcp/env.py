@@ -44,7 +44,7 @@ from jaxdc.core.energy import (
 from jaxdc.core.env import Environment, Transition
 from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, running_count, uniform_index
 from jaxdc.core.scene import Scene
-from jaxdc.core.validate import INT32_MAX, check_int, check_positive_int, is_int
+from jaxdc.core.validate import INT32_MAX, check_int, check_positive_int, is_int, value_text
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
 OUTCOMES = ("running", "risk", "energy", "cleared", "idle", "truncated")
@@ -415,5 +415,6 @@ def check_energy(energy: Any) -> tuple[float, float]:
     init_e = check_budget("initial energy", init_e)
     max_e = check_budget("maximum energy", max_e)
     if init_e > max_e:
-        raise ValueError(f"initial energy ({init_e:g}) must not exceed the maximum energy ({max_e:g})")
+        raise ValueError(f"initial energy ({value_text(init_e)}) must not exceed the maximum energy "
+                         f"({value_text(max_e)})")
     return init_e, max_e

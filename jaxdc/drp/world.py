@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxdc.core.validate import check_choice
+from jaxdc.core.validate import check_choice, value_text
 from jaxdc.io import atomic_write, json_text
 
 #: The thesis' reward distributions (section 3.5): integer-uniform 4..6, 1..9, all 5.
@@ -124,7 +124,7 @@ def generate(seed: int, n: int = 100, rewards: str = "4-6", base: str = "centre"
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
     size = _number("size", size, 0.0, COORD_MAX)
     if size <= 0:
-        raise ValueError(f"size must be in (0, {COORD_MAX:g}], got {size:g}")
+        raise ValueError(f"size must be in (0, {COORD_MAX:g}], got {value_text(size)}")
     rng = np.random.default_rng(seed)
     nodes = rng.uniform(0.0, size, size=(n, 2))
     lo, hi = REWARD_SETTINGS[rewards]
@@ -162,8 +162,9 @@ def _number(name, value, low=None, high=None):
     if not math.isfinite(v):
         raise ValueError(f"{name} must be finite, got {value!r}")
     if (low is not None and v < low) or (high is not None and v > high):
-        raise ValueError(f"{name} must be in [{low:g}, {high:g}] (so that the float32 planners stay finite), "
-                         f"got {v:g}")
+        raise ValueError(f"{name} must be in [{value_text(low)}, {value_text(high)}] (so that the float32 planners "
+                         "stay finite), "
+                         f"got {value_text(v)}")
     return v
 
 
@@ -203,19 +204,19 @@ def validate(graph: Graph) -> Graph:
     bad = np.flatnonzero(rewards > VALUE_MAX)
     if bad.size:
         raise ValueError(f"rewards[{bad[0]}] must be in [0, {VALUE_MAX:g}] (so that the float32 planners stay "
-                         f"finite), got {rewards[bad[0]]:g}")
+                         f"finite), got {value_text(rewards[bad[0]])}")
     psi = _number("psi", graph.psi)
     if not 0.0 < psi <= 1.0:
         raise ValueError(f"psi must be in (0, 1], got {psi}")
     if psi < PSI_MIN:
         raise ValueError(f"psi must be >= {PSI_MIN:.4g} (the smallest normal float32; a smaller one is 0 "
-                         f"there), got {psi:g}")
+                         f"there), got {value_text(psi)}")
     alpha = _number("alpha", graph.alpha)
     if alpha < 0:
         raise ValueError(f"alpha must be >= 0, got {alpha}")
     if alpha > VALUE_MAX:
         raise ValueError(f"alpha must be in [0, {VALUE_MAX:g}] (so that the float32 planners stay finite), "
-                         f"got {alpha:g}")
+                         f"got {value_text(alpha)}")
     return Graph(base, nodes, rewards, psi, alpha)
 
 

@@ -17,7 +17,7 @@ from typing import Any
 import jax
 
 from jaxdc.core.energy import MAX_FINITE_ENERGY
-from jaxdc.core.validate import check_float
+from jaxdc.core.validate import check_float, value_text
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis.collector_eval import evaluate, fraction
 from jaxdc.dcg.env import DCG
@@ -35,9 +35,9 @@ def check_energies(energies: Sequence[Any]) -> tuple[float, ...]:
     for e in energies:
         v = check_float("energies", e, 1.0, MAX_FINITE_ENERGY)
         if v != math.floor(v):
-            raise ValueError(f"energies must be whole numbers (the exact bound), got {v:g}")
+            raise ValueError(f"energies must be whole numbers (the exact bound), got {value_text(v)}")
         if v in out:
-            raise ValueError(f"energies lists {v:g} twice")
+            raise ValueError(f"energies lists {value_text(v)} twice")
         out.append(v)
     return tuple(out)
 
