@@ -67,6 +67,7 @@ from jaxdc.dcg.analysis.report import (
     optimum_text,
     report,
     result_name,
+    source_stem,
     team_report,
     team_result_name,
 )
@@ -77,6 +78,7 @@ from jaxdc.dcg.exact.many_items import sampled_bound
 from jaxdc.dcg.exact.team import FOG_TARGETS
 from jaxdc.dcg.exact.team import sampled_bound as team_bound
 from jaxdc.dcg.opponents import CHASE_TIES, DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
+from jaxdc.dcg.team.policies import copies
 from jaxdc.dcg.team.state import MAX_COLLECTORS
 from jaxdc.io import (
     atomic_write_json,
@@ -389,15 +391,18 @@ def _render(args, command) -> int:
     enable_compilation_cache()
     try:
         learned = _load(s.checkpoint, s.net)
-        for path in _render_paths(s, learned.net_name):
+        name = learned.net_name if learned.collectors == 1 else f"{source_stem(learned.source)}_k{learned.collectors}"
+        for path in _render_paths(s, name):
             check_output_path(path, "--out file", _checkpoint_inputs(args))
         env, params = learned.game(energy=s.energy, strategies=(s.strategy,), reward_area=s.reward_area,
                                    max_steps=s.max_steps)
-        states = play_episode(env, params, learned.policy(s.greedy), jax.random.PRNGKey(s.seed), s.max_steps)
+        policy = learned.policy(s.greedy)  # a team network: one copy per seat, each with the teammates plane
+        policy = copies(policy, learned.collectors) if learned.collectors > 1 else policy
+        states = play_episode(env, params, policy, jax.random.PRNGKey(s.seed), s.max_steps)
     except (TypeError, ValueError) as e:
         args.error(str(e))
     last = states[-1]
-    strip, gif = _render_paths(s, learned.net_name)
+    strip, gif = _render_paths(s, name)
     files = {strip: strip_png(env, params, states, cols=s.cols),
              gif: animation_bytes(env, params, states, ".gif", fps=s.fps)}
     atomic_write_set(files)  # the strip and the animation land together

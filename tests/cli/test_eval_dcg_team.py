@@ -50,3 +50,11 @@ def test_a_team_network_plays_only_its_own_team_size():
 def test_bad_team_flags_are_refused(argv, needles, tmp_path, capsys):
     refused(eval_dcg.main, ["--net", "omn_conn_strong", "--episodes", "4", "--out", str(tmp_path), *argv], capsys,
             *needles)
+
+
+def test_a_team_network_renders_every_collector(tmp_path, capsys):
+    out = str(tmp_path / "render")
+    assert eval_dcg.main(["render", "--net", "team2", "--strategy", "restricted", "--seed", "3", "--max-steps", "4",
+                          "--out", out]) == 0
+    assert sorted(os.listdir(out)) == ["dcg_team2_k2_restricted_s3.gif", "dcg_team2_k2_restricted_s3.png"]
+    assert capsys.readouterr().out.startswith("omn_conn vs restricted, seed 3:")

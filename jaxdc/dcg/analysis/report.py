@@ -64,13 +64,19 @@ def result_name(r: dict) -> str:
     return "_".join(parts) + ".json"
 
 
+def source_stem(source: str) -> str:
+    """A network's parameter file or run folder as a file-name stem: ``team2`` for ``.../team2.msgpack``."""
+    stem = os.path.basename(str(source).rstrip(os.sep))
+    if stem == "checkpoints":  # a run folder's checkpoints: the folder's name
+        stem = os.path.basename(os.path.dirname(str(source).rstrip(os.sep)))
+    return stem[: -len(".msgpack")] if stem.endswith(".msgpack") else stem
+
+
 def team_result_name(r: dict) -> str:
     """The file name of a team evaluation (:func:`jaxdc.dcg.analysis.team.evaluate_learned`):
     ``team_<net-file>_k<K>_e<energy>_<set>[_greedy]_s<seed>.json``."""
     s = r["setting"]
-    stem = os.path.basename(str(r["source"]).rstrip(os.sep))
-    stem = stem[: -len(".msgpack")] if stem.endswith(".msgpack") else stem
-    return "_".join([f"team_{stem}", f"k{r['collectors']}", f"e{_setting_text(s['energy'])}",
+    return "_".join([f"team_{source_stem(r['source'])}", f"k{r['collectors']}", f"e{_setting_text(s['energy'])}",
                      _strategy_set(s["strategies"])] + (["greedy"] if r["greedy"] else []) + [f"s{r['seed']}"]) \
         + ".json"
 

@@ -16,6 +16,7 @@ in its own team.
 from __future__ import annotations
 
 import math
+import os
 from typing import Any, Callable
 
 import jax
@@ -89,7 +90,8 @@ def evaluate_learned(learned: learned_lib.Learned, collectors: int | None = None
     env, params = team_game(learned, k, energy=energy, strategies=strategies, max_steps=max_steps)
     out = evaluate_team(env, params, copies(learned.policy(greedy), k), jax.random.PRNGKey(seed), episodes)
     setting = learned.setting()
-    return {"net": learned.net_name, "source": learned.source,
+    source = os.path.relpath(learned.source) if os.path.exists(learned.source) else learned.source
+    return {"net": learned.net_name, "source": source,
             "team": "copies" if learned.collectors == 1 else "trained", "seed": seed, "greedy": bool(greedy),
             "setting": {"energy": setting["energy"] if energy is None else energy,
                         "strategies": list(env.strategies),
