@@ -73,7 +73,7 @@ from jaxdc.core.energy import ENERGY_SCALE
 from jaxdc.dcg.env import OBSERVATIONS
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.dcg.team.state import MAX_COLLECTORS
-from jaxdc.io import check_output_path
+from jaxdc.io import check_not_input, check_output_path
 from jaxdc.training.dcg import NETS, DCGRun, DCGSettings, settings_from_metadata
 from jaxdc.training.distributed import is_primary
 
@@ -181,7 +181,7 @@ def main(argv=None) -> int:
         out = settle(args)[1].out
         start = {"--init-from": pretrained.read_paths(args.init_from, "dcg") if args.init_from else None}
         for path in run_outputs(out):  # the run folder must not be the network it starts from
-            check_output_path(path, "--out", start)
+            check_not_input(path, "--out", start)
         if args.ship is not None:
             blob = ship_path(args)
             blob = blob[: -len(".msgpack")] if blob.endswith(".msgpack") else blob

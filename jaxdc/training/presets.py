@@ -138,11 +138,10 @@ DCG_GENERAL = {"omn_conn_general": Preset(
     "omn_conn", observation="general", energy_range=(8.0, 25.0), total_steps=5_000_000, **DCG_STRONG_RECIPE)}
 #: The two-collector team (issue 29; the team game the thesis' conclusion to chapter 5 proposes, beyond the thesis):
 #: OMN+CoNN shared by two collectors on the team reward, started from ``omn_conn_strong`` (the team starts as two
-#: copies of it: :func:`jaxdc.training.dcg.start_params`) and trained with the strong recipe at lr 3e-4.
+#: copies of it: :func:`jaxdc.training.dcg.start_params`) and trained with the strong recipe at lr 3e-4 for 5M steps.
 DCG_TEAM = {"team2": Preset(
     "dcg", "the team game, two collectors (beyond the thesis: started from omn_conn_strong)", "omn_conn",
-    total_steps=2_000_000, **{**DCG_STRONG_RECIPE, "lr": 3e-4, "eval_every": 500_000}, collectors=2,
-    init_from="omn_conn_strong")}
+    total_steps=5_000_000, **{**DCG_STRONG_RECIPE, "lr": 3e-4}, collectors=2, init_from="omn_conn_strong")}
 #: The shipped DCP presets (exported by ``train.ship``).
 ALL = {**SHIPPED, **BEYOND}
 #: Every named configuration.

@@ -88,6 +88,8 @@ def test_a_warm_start_is_recorded_and_a_team_run_restarts_from_itself(run_dir, t
     assert meta["init_from"] == run_dir and meta["init_sha256"] == digest(source.params)
     again, _ = _settle(["--config", out])
     assert again.init_from == run_dir and again.collectors == 2
+    # a resume (its checkpoints/ folder exists) with the same warm start is the same run: nothing left to train
+    assert cli.main(TINY + ["--init-from", run_dir, "--out", out, "--resume"]) == 0
 
 
 def test_a_warm_start_from_another_setting_or_onto_its_own_files_is_refused(run_dir, capsys, tmp_path):
