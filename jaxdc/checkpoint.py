@@ -36,6 +36,7 @@ import orbax.checkpoint as ocp
 from flax import serialization
 
 from jaxdc.core.tree_check import digest, mismatch, non_finite, slash_path
+from jaxdc.io import signals_deferred
 
 #: A folder path.
 PathLike = Union[str, "os.PathLike[str]"]
@@ -84,13 +85,16 @@ def save(directory: PathLike, step: int, state: Any, metadata: dict, keep: int =
     """Write ``state`` (a pytree) and ``metadata`` (JSON-able) as checkpoint ``step``; keep the last ``keep``.
 
     A ``ValueError`` refuses a state with a NaN or an infinity in any float array (nothing is written); a
-    failed write removes its partial step folder and raises a :class:`WriteError` naming the folder.
+    failed write removes its partial step folder and raises a :class:`WriteError` naming the folder. A Ctrl-C or
+    SIGTERM during the write is delivered once it has ended (:func:`jaxdc.io.signals_deferred`).
     """
     tree = serialization.to_state_dict(jax.device_get(state))
     check_finite(tree, f"refusing to save checkpoint {step} into {directory}: the state")
     remove_partial(directory)
     try:
-        with _manager(directory, keep) as mngr:
+        # a Ctrl-C or SIGTERM waits for the write (under a second for jaxdc's states): raised inside the
+        # checkpointing library's threads, it would leave them writing to a closed event loop
+        with signals_deferred(), _manager(directory, keep) as mngr:
             mngr.save(int(step), args=ocp.args.Composite(state=ocp.args.StandardSave(tree),
                                                          metadata=ocp.args.JsonSave(dict(metadata)),
                                                          digest=ocp.args.JsonSave({"sha256": digest(tree)})))

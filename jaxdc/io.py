@@ -3,7 +3,8 @@
 A run killed half-way (Ctrl-C included) never leaves a half-written result:
 every file is written to a temporary file in the same folder, then renamed.
 :func:`atomic_write_set` writes several files (a table's ``.json`` and
-``.md``) so that either all the old ones or all the new ones are there.
+``.md``) so that either all the old ones or all the new ones are there;
+:func:`signals_deferred` holds a Ctrl-C or SIGTERM until a write ends.
 Every JSON jaxdc writes is strict (:func:`json_text`): NaN and Infinity,
 which JSON does not have, are refused with the key path that holds them, so
 a producer writes ``null`` and a reason instead.
@@ -17,7 +18,8 @@ import math
 import os
 import signal
 import tempfile
-from collections.abc import Iterable, Mapping, Sequence
+import threading
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from typing import Union
 
 
@@ -123,16 +125,30 @@ def atomic_write_json(path, obj) -> str:
 
 
 @contextlib.contextmanager
-def _signals_deferred():
-    """Hold SIGINT/SIGTERM (main thread, POSIX) until the block ends, so that it runs to completion."""
-    can = hasattr(signal, "pthread_sigmask") and os.name == "posix"
-    sigs = {signal.SIGINT, signal.SIGTERM}
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs) if can else None
+def signals_deferred() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM until the block ends, then deliver them (each once, to the handlers that were set
+    before the block), so that the block runs to completion: a Ctrl-C during a checkpoint's write stops the run
+    after the write, never inside the checkpointing library's threads.
+
+    The handlers are swapped, not the thread's signal mask: in a process with other threads (JAX's, a checkpoint
+    writer's) a signal blocked in the main thread is still delivered through another one. Signal handlers run in
+    the main thread only, so elsewhere, and for a signal whose handler was not set from Python, the block runs
+    unprotected."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    held = [s for s, handler in previous.items() if handler is not None]
+    caught: list[int] = []
+    for s in held:
+        signal.signal(s, lambda signum, frame: caught.append(signum))
     try:
         yield
     finally:
-        if can:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        for s in held:
+            signal.signal(s, previous[s])
+        for s in dict.fromkeys(caught):
+            signal.raise_signal(s)
 
 
 def atomic_write_set(files: dict) -> list[str]:
@@ -148,7 +164,7 @@ def atomic_write_set(files: dict) -> list[str]:
         for path, data in files.items():
             path = os.fspath(path)
             temps.append((_write_temp(path, data), path))
-        with _signals_deferred():
+        with signals_deferred():
             for tmp, path in temps:
                 os.replace(tmp, path)
     except BaseException:

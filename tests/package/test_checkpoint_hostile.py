@@ -6,6 +6,7 @@ from __future__ import annotations
 import errno
 import glob
 import os
+import signal
 
 import numpy as np
 import orbax.checkpoint as ocp
@@ -69,7 +70,7 @@ def test_arrays_other_than_those_saved_are_found_by_their_digest(tmp_path, monke
     d = tmp_path / "c"
     checkpoint.save(d, 4, _state(), {"net": "x"})
     with monkeypatch.context() as m:
-        m.setattr(checkpoint, "_digest", lambda tree: "0" * 64)  # the digest of other arrays
+        m.setattr(checkpoint, "digest", lambda tree: "0" * 64)  # the digest of other arrays
         checkpoint.save(d, 8, _state(), {"net": "x"})
     with pytest.raises(checkpoint.Damaged, match="step 8 is damaged: its arrays differ from those saved"):
         checkpoint.restore(d, _state())
@@ -92,6 +93,26 @@ def test_a_failed_save_removes_its_partial_folder_and_names_the_folder(tmp_path,
     assert sorted(os.listdir(d)) == ["4"] and checkpoint.steps(d) == [4]
     checkpoint.save(d, 8, _state(), {"net": "x"})  # the disk has room again
     assert checkpoint.steps(d) == [4, 8]
+
+
+def test_a_ctrl_c_during_a_save_stops_the_program_after_the_write(tmp_path, monkeypatch):
+    """The signal arrives while orbax writes (from its writer thread); the step is complete and restores, and
+    the KeyboardInterrupt comes once ``save`` has finished."""
+    d = tmp_path / "c"
+    original = ocp.handlers.JsonCheckpointHandler._save_fn
+    sent = []
+
+    def interrupted(*args, **kwargs):
+        if not sent:
+            sent.append(os.kill(os.getpid(), signal.SIGINT))
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(ocp.handlers.JsonCheckpointHandler, "_save_fn", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        checkpoint.save(d, 4, _state(), {"net": "x"})
+    monkeypatch.undo()
+    assert sent and sorted(os.listdir(d)) == ["4"] and checkpoint.intact_steps(d, _state()) == [4]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
 def test_a_stale_partial_folder_of_a_killed_save_is_cleared(tmp_path):

@@ -4,6 +4,7 @@ only fail after the work, JSON nested too deeply."""
 from __future__ import annotations
 
 import os
+import signal
 
 import pytest
 
@@ -87,3 +88,19 @@ def test_deeply_nested_sidecar_refused_naming_the_file(tmp_path):
     (tmp_path / "net.json").write_text("[" * 100_000 + "]" * 100_000)
     with pytest.raises(ValueError, match=r"net\.msgpack: metadata unreadable: .*net\.json: nested too deeply"):
         pretrained.read_metadata(str(tmp_path / "net.msgpack"))
+
+
+def test_signals_deferred_delivers_each_signal_after_the_block(tmp_path):
+    """SIGINT and SIGTERM sent during the block do not interrupt it; each reaches its own handler once, after."""
+    got, done = [], []
+    previous = signal.signal(signal.SIGTERM, lambda signum, frame: got.append(signum))
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with io.signals_deferred():
+                for s in (signal.SIGTERM, signal.SIGINT, signal.SIGTERM):
+                    os.kill(os.getpid(), s)
+                done.append(True)
+        assert done == [True] and got == [signal.SIGTERM]
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGTERM, previous)
