@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
 import tempfile
 
 import jax
@@ -33,6 +34,10 @@ def pytest_addoption(parser):
 
 def pytest_configure(config):
     os.environ.setdefault("JAXDC_NO_CACHE", "1")
+    # A shell starts a background job (`cmd &`, nohup) with SIGINT ignored, and the CLIs that the Ctrl-C tests
+    # start would inherit that and rightly keep running; the tests need Ctrl-C to reach them as from a terminal.
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     if config.getoption("no_xla_cache"):
         return
     path = os.environ.get(SESSION_CACHE)
