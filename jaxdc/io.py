@@ -126,8 +126,9 @@ def atomic_write_json(path, obj) -> str:
 
 @contextlib.contextmanager
 def signals_deferred() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM until the block ends, then deliver them (each once, to the handlers that were set
-    before the block), so that the block runs to completion: a Ctrl-C during a checkpoint's write stops the run
+    """Hold SIGINT and SIGTERM until the block ends, then deliver them (each once, in the order they came, to the
+    handlers that were set before the block; a handler that raises, as Ctrl-C's does, ends the delivery), so that
+    the block runs to completion: a Ctrl-C during a checkpoint's write stops the run
     after the write, never inside the checkpointing library's threads.
 
     The handlers are swapped, not the thread's signal mask: in a process with other threads (JAX's, a checkpoint

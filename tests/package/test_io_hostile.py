@@ -90,7 +90,7 @@ def test_deeply_nested_sidecar_refused_naming_the_file(tmp_path):
         pretrained.read_metadata(str(tmp_path / "net.msgpack"))
 
 
-def test_signals_deferred_delivers_each_signal_after_the_block(tmp_path):
+def test_signals_deferred_delivers_each_signal_after_the_block():
     """SIGINT and SIGTERM sent during the block do not interrupt it; each reaches its own handler once, after."""
     got, done = [], []
     previous = signal.signal(signal.SIGTERM, lambda signum, frame: got.append(signum))
