@@ -41,13 +41,13 @@ OPTIONAL_SETTINGS = {"dcp": ("min_total_reward",), "dcg": ("reward_area", "min_r
 RUN_KEYS = {
     "dcp": ("format", "net", "problem", "grid_size", "total_reward", "risk", "energy", "max_steps",
             "min_total_reward", "seed", "seeds", "algorithm", "observation", "risk_maps", "map_seeds", "energy_range",
-            "init_fraction"),
+            "init_fraction", "init_from", "init_sha256"),
     "dcg": ("format", "net", "problem", "grid_size", "total_reward", "strategies", "energy", "max_steps", "history",
             "alpha", "reward_area", "min_reward_area", "seed", "seeds", "algorithm", "observation", "energy_range",
             "collectors", "init_from", "init_sha256"),
 }
 #: Entries of :data:`RUN_KEYS` that record a fact of the run, not a setting (no flag sets them): the SHA-256 of the
-#: parameters a warm start began from (``train.dcg --init-from``).
+#: parameters a warm start began from (``train.dcp --init-from``, ``train.dcg --init-from``).
 RECORDS = ("init_sha256",)
 #: Metadata entries that are counts (ints >= 1), checked on read.
 COUNTS = ("grid_size", "total_reward", "max_steps", "steps", "updates", "min_total_reward", "reward_area",

@@ -20,6 +20,8 @@ N; ``jaxdc.agents.parallel``). ``--seeds 0,1,2`` trains independent runs in
 one vmapped program: one checkpoint holds them all, and each seed gets its
 own ``metrics-sSEED.csv``. ``--tensorboard`` also writes the metrics as
 TensorBoard event files into ``tb/`` (needs the ``tb`` extra: tensorboardX).
+``--init-from NET|PATH`` (beyond the thesis) starts from a trained actor-critic of the same network, grid size
+and observation instead of a fresh initialisation, recorded with the SHA-256 of its parameters.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import argparse
 import dataclasses
 import os
 
+from jaxdc import pretrained
 from jaxdc.agents.a2c import A2CConfig
 from jaxdc.agents.common import RunConfig
 from jaxdc.agents.nstep_q import EVAL_EPSILON, QConfig
@@ -42,11 +45,13 @@ from jaxdc.cli.train_common import (
     learner_options_set,
     report_done,
     run_control,
+    run_outputs,
     seed_tag,
     train_from_command_line,
     training_energy,
 )
 from jaxdc.core import generators, grid
+from jaxdc.io import check_not_input
 from jaxdc.training.dcp import NETS, DCPRun, DCPSettings, settings_from_metadata
 
 #: EQN's default environment steps between target-network copies (``QConfig.target_every``).
@@ -86,6 +91,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--eval-epsilon", type=unit_interval("--eval-epsilon"), default=None,
                    help="eqn: epsilon of the evaluation policy (section 4.5.5: 0.05)")
     p.add_argument("--out", default=None, help="run folder (default runs/dcp-NET-RISK-sSEED)")
+    p.add_argument("--init-from", default=None, metavar="NET|PATH",
+                   help="start from a trained network of the same kind, grid size and observation (a shipped name, a "
+                        ".msgpack or a run folder) instead of a fresh initialisation: e.g. enn_general fine-tuned on "
+                        "one --risk map. Actor-critics only. Not in the thesis")
     p.add_argument("--tensorboard", action="store_true",
                    help="also write the metrics as TensorBoard event files into OUT/tb (needs tensorboardX)")
     return p
@@ -118,7 +127,7 @@ def settle(args):
                            eval_epsilon=EVAL_EPSILON if args.eval_epsilon is None else args.eval_epsilon,
                            observation=args.observation, risk_maps=args.risk_maps, map_seeds=tuple(args.map_seeds),
                            energy_range=None if args.energy_range is None else tuple(args.energy_range),
-                           init_fraction=args.init_fraction)
+                           init_fraction=args.init_fraction, init_from=args.init_from)
     out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{seed_tag(args)}")
     return settings, run_control(args, out)
 
@@ -134,7 +143,14 @@ def main(argv=None) -> int:
     Every flag, the run folder and its ``tb/`` are checked before any work; a bad value or combination is a
     usage error (exit 2) naming the flag.
     """
-    trained = train_from_command_line(build_parser(), argv, "dcp", settings_from_metadata, settle, DCPRun)
+    def check_start(args: argparse.Namespace) -> None:  # the run folder must not be the network it starts from
+        if args.init_from:
+            start = {"--init-from": pretrained.read_paths(args.init_from, "dcp")}
+            for path in run_outputs(settle(args)[1].out):
+                check_not_input(path, "--out", start)
+
+    trained = train_from_command_line(build_parser(), argv, "dcp", settings_from_metadata, settle, DCPRun,
+                                      check_start)
     if trained is None:  # --list-configs
         return 0
     return report_done(trained[2], lambda r: f"energy {fmt(r['eval_energy'], '.2f')}, RPE {fmt(r['eval_rpe'])}")

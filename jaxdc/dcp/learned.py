@@ -50,7 +50,16 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
     from jaxdc.core.sampling import MAX_TOTAL_REWARD
     from jaxdc.core.validate import SEED_MAX
     from jaxdc.dcp import env as dcp_env
-    from jaxdc.pretrained import json_bool, json_choice, json_int, json_list, json_number, json_object, optional
+    from jaxdc.pretrained import (
+        json_bool,
+        json_choice,
+        json_int,
+        json_list,
+        json_number,
+        json_object,
+        json_string,
+        optional,
+    )
 
     budget = json_number(0.0, MAX_FINITE_ENERGY, low_open=True, allow_inf=True)
     return {
@@ -61,6 +70,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "risk_maps": optional(json_choice(tuple(GENERATORS))), "map_seeds": optional(json_list(json_int(0), 2)),
         "energy_range": optional(json_list(json_number(0.0, MAX_FINITE_ENERGY, low_open=True), 2)),
         "init_fraction": optional(json_number(0.0, 1.0)),
+        "init_from": optional(json_string), "init_sha256": optional(json_string),
         "env": json_object({"start": json_choice(dcp_env.STARTS), "items_on_base": json_bool,
                             "idle_terminates": json_bool, "item_order": json_choice(dcp_env.ITEM_ORDERS),
                             "energy_metric": json_choice(ENERGY_METRICS)}),

@@ -48,6 +48,7 @@ from jaxdc.nets import DCG_NETS, build
 from jaxdc.nets.transfer import widen_inputs
 from jaxdc.training.fields import SettingError
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
+from jaxdc.training.warm_start import check_init_from, check_same_setting, init_metadata
 
 #: The networks a DCG run trains (the names of the registry :data:`jaxdc.nets.registry.DCG_NETS`).
 NETS = tuple(DCG_NETS)
@@ -103,8 +104,7 @@ class DCGSettings:
     def __post_init__(self) -> None:
         check_choice("observation", self.observation, OBSERVATIONS)
         check_int("collectors", self.collectors, 1, MAX_COLLECTORS)
-        if self.init_from is not None and (not isinstance(self.init_from, str) or not self.init_from):
-            raise TypeError(f"init_from must be a network's name or path (a non-empty string), got {self.init_from!r}")
+        check_init_from(self.init_from)
         if self.energy_range is not None:
             check_energy_range(self.energy_range, MIN_RANGE_ENERGY)
 
@@ -173,9 +173,7 @@ def start_params(s: DCGSettings, env: DCG | DCGTeam, env_params: Any, net: Any) 
     ours = {"net": (source.net_name, s.net), "grid_size": (trained["grid_size"], s.grid_size),
             "history": (history, s.history),
             "observation": (source.metadata.get("observation", "thesis"), s.observation)}
-    for key, (theirs, wanted) in ours.items():
-        if theirs != wanted:
-            raise ValueError(f"{where}: its {key} is {theirs!r}; this run's is {wanted!r}")
+    check_same_setting(where, ours)
     if source.collectors not in (1, s.collectors):
         raise ValueError(f"{where}: trained by a team of {source.collectors} collectors; it starts a run of one "
                          f"collector or of {source.collectors}, not of {s.collectors}")
@@ -202,7 +200,7 @@ def run_metadata(s: DCGSettings, env: DCG | DCGTeam, seeds: Iterable[int],
         **({} if s.observation == "thesis" else {"observation": s.observation}),
         **({} if s.energy_range is None else {"energy_range": list(s.energy_range)}),
         **({} if s.collectors == 1 else {"collectors": s.collectors}),
-        **({} if s.init_from is None else {"init_from": s.init_from, "init_sha256": init_sha256}),
+        **init_metadata(s.init_from, init_sha256),
     }
 
 

@@ -21,13 +21,15 @@ import jax
 from jaxdc.agents import a2c, nstep_q
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
+from jaxdc.core.tree_check import digest
 from jaxdc.dcp import env as dcp_env
-from jaxdc.dcp import instances, navigators
+from jaxdc.dcp import instances, learned, navigators
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.metadata import FORMAT, check_run, recorded_pair, run_settings
 from jaxdc.nets import DCP_NETS, NSTEP_Q, build
 from jaxdc.training.instances import check_instance_settings, instance_metadata, training_params
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
+from jaxdc.training.warm_start import check_init_from, check_same_setting, init_metadata
 
 #: Networks (the registry :data:`jaxdc.nets.registry.DCP_NETS`): the actor-critics train with A2C, EQN with
 #: n-step Q-learning.
@@ -56,6 +58,9 @@ class DCPSettings:
         ``map_seeds = (start, count)`` maps of the named generator (``risk_maps``, one of
         :data:`jaxdc.core.generators.GENERATORS`; ``None``: the ``risk`` preset) and its maximum energy from
         ``energy_range`` (``None``: ``energy``), starting with ``init_fraction`` of it.
+      init_from: ``None`` (a fresh initialisation, as the thesis) or a trained actor-critic of the run's network,
+        grid size and observation -- a shipped name, a ``.msgpack`` or a ``train.dcp`` run folder -- whose
+        parameters start the run (a warm start, beyond the thesis: :func:`start_params`). Not for EQN.
     """
 
     net: str
@@ -74,6 +79,7 @@ class DCPSettings:
     map_seeds: tuple[int, int] = (0, 1024)
     energy_range: tuple[float, float] | None = None
     init_fraction: float = 0.5
+    init_from: str | None = None
 
     @property
     def per_episode(self) -> bool:
@@ -87,6 +93,10 @@ class DCPSettings:
         if not isinstance(self.config, want):
             raise TypeError(f"net {self.net!r} trains with a {want.__name__}, got {type(self.config).__name__}")
         check_instance_settings(self)
+        check_init_from(self.init_from)
+        if self.init_from is not None and self.uses_q_learning:
+            raise ValueError(f"init_from={self.init_from!r}: a warm start applies to the actor-critics (A2C); "
+                             f"{self.net!r} trains with n-step Q-learning")
 
     @property
     def uses_q_learning(self) -> bool:
@@ -94,7 +104,23 @@ class DCPSettings:
         return DCP_NETS[self.net].algorithm == NSTEP_Q
 
 
-def run_metadata(s: DCPSettings, seeds: Iterable[int]) -> dict[str, Any]:
+def start_params(s: DCPSettings) -> tuple[Any, str] | None:
+    """``(params, digest)`` that start the run of ``s`` (``None`` without ``init_from``): the parameters of the
+    network ``s.init_from`` (:func:`jaxdc.dcp.learned.load`) and their SHA-256 (recorded as ``init_sha256``).
+
+    The source must be the run's network, trained on the same grid size and observation (the shapes of its
+    parameters); its risk map, budget and items may differ -- that is what a warm start is for (e.g. ``enn_general``
+    fine-tuned on one map). Anything else is a ``ValueError`` naming ``init_from``."""
+    if s.init_from is None:
+        return None
+    source = learned.load(s.init_from)
+    check_same_setting(f"init_from={s.init_from!r} ({source.source})",
+                       {"net": (source.net_name, s.net), "grid_size": (source.setting()["grid_size"], s.grid_size),
+                        "observation": (source.observation, s.observation)})
+    return source.params, digest(source.params)
+
+
+def run_metadata(s: DCPSettings, seeds: Iterable[int], init_sha256: str | None = None) -> dict[str, Any]:
     """The run's metadata (``config.json``, checkpoints) in the current format."""
     seeds = list(seeds)
     return {
@@ -103,6 +129,7 @@ def run_metadata(s: DCPSettings, seeds: Iterable[int]) -> dict[str, Any]:
         **({"seeds": seeds} if len(seeds) > 1 else {"seed": seeds[0]}),
         "algorithm": dataclasses.asdict(s.config),
         **instance_metadata(s),
+        **init_metadata(s.init_from, init_sha256),
     }
 
 
@@ -113,7 +140,8 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCPSettings, tuple
     meta = check_run(meta, "dcp", where)
     energy = recorded_pair(meta.get("energy", list(DCPSettings.energy)), "energy", where, " [initial, maximum]")
     setting = {k: meta[k] for k in ("risk", "grid_size", "total_reward", "min_total_reward", "max_steps",
-                                    "observation", "risk_maps", "init_fraction") if meta.get(k) is not None}
+                                    "observation", "risk_maps", "init_fraction", "init_from")
+               if meta.get(k) is not None}
     for k in ("map_seeds", "energy_range"):  # pairs, stored as lists
         if meta.get(k) is not None:
             setting[k] = recorded_pair(meta[k], k, where)
@@ -125,7 +153,10 @@ class DCPRun(TrainingRun):
 
     def __init__(self, settings: DCPSettings, control: RunControl) -> None:
         s = self.settings = settings
-        self.claim(control, run_metadata(s, control.seeds))  # lock the folder, check a resume: before the build
+        start = start_params(s)  # the source is read before any work
+        init_params, sha = (None, None) if start is None else start
+        meta = run_metadata(s, control.seeds, sha)
+        self.claim(control, meta)  # lock the folder, check a resume: before the build
         algo = nstep_q if s.uses_q_learning else a2c
         self.net = build("dcp", s.net)
         self.env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward,
@@ -139,15 +170,16 @@ class DCPRun(TrainingRun):
             check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
             table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
             self.heuristics = navigators.batched_heuristics(self.env_params, table)
-        trainer, mesh = spread(algo.make_train(s.config, self.env, self.env_params, self.net, self.heuristics),
-                               control, s.config.num_envs)
+        warm = {} if init_params is None else {"init_params": init_params}
+        trainer, mesh = spread(algo.make_train(s.config, self.env, self.env_params, self.net, self.heuristics,
+                                               **warm), control, s.config.num_envs)
         eval_env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward, observation=s.observation)
 
         def episodes(params, key):
             return run_episodes(eval_env, self.env_params, self.policy(params), key, s.eval_episodes)
 
         self._episodes = jax.jit(jax.vmap(episodes) if control.multi else episodes)
-        super().__init__(control, RunSpec(s.config, trainer, mesh, run_metadata(s, control.seeds), self.evaluate,
+        super().__init__(control, RunSpec(s.config, trainer, mesh, meta, self.evaluate,
                                           LOSS_METRICS, CSV_FIELDS))
         check_evaluation_fits(self, self._episodes)
 
