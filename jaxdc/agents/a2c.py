@@ -32,6 +32,8 @@ the PPO-style options, as JaxMARL's): the ``k`` agents of every environment are 
 acting on its own observation with the one network; every agent learns from the team reward (the shared
 reward of a cooperative game); an agent's steps count only while it is active (``state.active``; a disabled
 collector's ignored actions carry no gradient). One environment step is still one step of ``total_steps``.
+``make_train(..., critic=net)`` turns it into MAPPO (Yu et al. 2022; issue 29): the values come from a centralised
+critic on the environment's world state (:mod:`jaxdc.agents.centralised`), the actors still act on their own.
 
 Everything per step is a pure function of arrays. :func:`make_train` returns
 the pieces: ``init(key) -> TrainState``, a jitted ``update(state)`` (one
@@ -55,6 +57,7 @@ import numpy as np
 import optax
 from flax import struct
 
+from jaxdc.agents.centralised import CentralCritic
 from jaxdc.agents.common import (
     Network,
     RunConfig,
@@ -167,6 +170,7 @@ class Batch(NamedTuple):
     old_log_prob: jax.Array | None  # log pi_old(a|s), for clip_eps
     advantages: jax.Array | None  # R - V_old(s), fixed before the update
     weight: jax.Array | None = None  # teams: 1 where the agent was active at the step, else 0; None: all count
+    world: jax.Array | None = None  # with a centralised critic: each row's world state; else None
 
 
 # -- the pieces of the loss ---------------------------------------------------------------
@@ -285,7 +289,7 @@ def _no_heuristics(num_actions: int, agents: int) -> Callable:
 
 
 def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Network, heuristics: Callable | None = None,
-               aux_target: Callable | None = None, init_params: Any = None) -> Trainer:
+               aux_target: Callable | None = None, init_params: Any = None, critic: Any = None) -> Trainer:
     """Build the A2C trainer of ``net`` on ``env`` with ``env_params`` (validated outside jit).
 
     ``heuristics`` (``env_states [B] -> [B, H, A]``) feeds a network that uses them (ENN).
@@ -300,6 +304,12 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
     network) replaces the network's fresh initialisation; it must have the structure and shapes of ``net``'s
     parameters (``ValueError``). Everything else -- the optimiser's state, the environments, the keys -- starts
     as without it.
+
+    ``critic`` (beyond the thesis: MAPPO, Yu et al. 2022; issue 29), on a team environment with a
+    ``world_state(state, params)`` hook only: a flax module ``world [B, ...] -> value [B]`` (e.g.
+    :class:`jaxdc.nets.critic.WorldCritic`) whose value on the world state replaces the network's own in the
+    returns, the truncation bootstrap and the value loss (:mod:`jaxdc.agents.centralised`); its parameters join the
+    trained tree (``init_params`` is then the actor's alone). ``None`` (default): IPPO, each row's own value.
     """
     if not isinstance(config, A2CConfig):
         raise TypeError(f"config must be an A2CConfig, got {type(config).__name__}")
@@ -323,8 +333,12 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
     if config.aux_lr is not None and not net.aux_params:
         raise ValueError(f"aux_lr={config.aux_lr!r}: {type(net).__name__} has no separate auxiliary network "
                          "(aux_params); only OMN + CoNN has one")
+    central = None if critic is None else CentralCritic.of(critic, env, env_params, agents)
     tx = make_optimizer(config, net.aux_params)
     value_fn = functools.partial(net.apply, method="value")
+
+    def values_of(params, obs, world):  # [B * k]: each row's own value, or its team state's centralised value
+        return value_fn(params, rows(obs)) if central is None else central.row_values(params, world)
     needs_old_policy = config.gae_lambda < 1 or config.clip_eps is not None or config.normalize_advantages
 
     start = None if init_params is None else check_like(
@@ -336,6 +350,7 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
         params, obs, env_state, k_train = first_batch(key, env, env_params, net, heuristics, config.num_envs,
                                                       agents)
         params = params if start is None else start
+        params = params if central is None else central.init(key, env_state, params)
         return TrainState(params, tx.init(params), env_state, obs, k_train, jnp.int32(0))
 
     def env_step(params, carry, _):
@@ -349,14 +364,15 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
         reward, term, trunc = per_agent(reward), per_agent(term), per_agent(trunc)
         final_value = jax.lax.cond(
             trunc.any(),
-            lambda: jnp.where(trunc, value_fn(params, rows(info["final_observation"])), 0.0),
+            lambda: jnp.where(trunc, values_of(params, info["final_observation"], info.get("world_state")), 0.0),
             lambda: jnp.zeros_like(reward))
         done = term | trunc
         target = aux_target(info).astype(jnp.int32).reshape(action.shape) if aux_target is not None \
             else jnp.zeros_like(action)
         weight = None if agents is None else rows(env_state.active).astype(jnp.float32)
         t = Transition(rows(obs), h, action, reward, term, trunc, final_value,
-                       jnp.where(done, per_agent(info["episode_reward"]), 0.0), target, weight)
+                       jnp.where(done, per_agent(info["episode_reward"]), 0.0), target, weight,
+                       None if central is None else central.world(env_state))
         return (env_state2, obs2, key), t
 
     def adam_step(carry, batch: Batch):
@@ -370,8 +386,9 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
                 w = batch.weight / jnp.maximum(jnp.sum(batch.weight), 1.0)
                 centred = adv - jnp.sum(w * adv)
                 adv = centred / (jnp.sqrt(jnp.sum(w * centred ** 2)) + 1e-8)
+        apply_fn = net.apply if central is None or batch.world is None else central.apply_with(net.apply, batch.world)
         grads, metrics = jax.grad(a2c_loss, has_aux=True)(
-            params, net.apply, batch.obs, batch.heuristics, batch.action, batch.returns, config,
+            params, apply_fn, batch.obs, batch.heuristics, batch.action, batch.returns, config,
             batch.aux_target, batch.old_log_prob, adv, batch.weight)
         updates, opt_state = tx.update(grads, opt_state, params)
         return (optax.apply_updates(params, updates), opt_state), metrics
@@ -401,16 +418,19 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
         old_log_prob = advantages = values = None
         if needs_old_policy:  # options: pi_old and V(s_t) of the rollout, before this update
             logits, values = net.apply(ts.params, flat(traj.obs), flat(traj.heuristics))[:2]
+            values = values if central is None else central.row_values(ts.params, flat(traj.world))
             old_log_prob = jnp.take_along_axis(jax.nn.log_softmax(logits), flat(traj.action)[:, None], -1)[:, 0]
             values = values.reshape(traj.reward.shape)
         returns = nstep_returns(traj.reward, traj.terminated, traj.truncated, traj.final_value,
-                                value_fn(ts.params, rows(obs)), config.gamma, values, config.gae_lambda)
+                                values_of(ts.params, obs, None if central is None else central.world(env_state)),
+                                config.gamma, values, config.gae_lambda)
         if needs_old_policy:
             assert values is not None
             advantages = flat(returns - values)
         batch = Batch(flat(traj.obs), flat(traj.heuristics), flat(traj.action), flat(returns),
                       flat(traj.aux_target), old_log_prob, advantages,
-                      None if traj.weight is None else flat(traj.weight))
+                      None if traj.weight is None else flat(traj.weight),
+                      None if central is None else jnp.repeat(flat(traj.world), k, axis=0))
         params, opt_state, key, metrics = learn(ts.params, ts.opt_state, key, batch)
         done = traj.terminated | traj.truncated
         # a team's episode is on each of its k rows: counted once

@@ -136,6 +136,7 @@ class Transition(NamedTuple):
     episode_reward: jax.Array  # the finished episode's reward where done, else 0
     aux_target: jax.Array  # int32 label of the auxiliary head (e.g. the opponent's action o_t), else 0
     weight: jax.Array | None = None  # teams (a2c): 1 where the agent was active, else 0; None: one agent
+    world: jax.Array | None = None  # a centralised critic's (a2c): the environments' world states [B, ...]; else None
 
 
 class Trainer(NamedTuple):

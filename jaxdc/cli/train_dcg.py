@@ -35,7 +35,10 @@ the ``K`` collectors of the team game (:class:`jaxdc.dcg.team.DCGTeam`) on the t
 reward (:mod:`jaxdc.training.dcg`). ``--init-from NET|PATH`` (beyond the thesis) starts
 from a trained network of the same kind instead of a fresh initialisation (a
 one-collector network starting a team: the team starts as its copies,
-:func:`jaxdc.training.dcg.start_params`).
+:func:`jaxdc.training.dcg.start_params`). ``--algo mappo`` (beyond the thesis,
+with ``--collectors`` >= 2) trains the team with a centralised critic on the
+world state (MAPPO; :mod:`jaxdc.agents.centralised`) instead of each
+collector's own value (``ippo``, the default); ``--ship`` writes the actor alone.
 
 The learner options of ``train.dcp`` (``--gae-lambda``, ``--clip-eps``,
 ``--epochs``, ``--minibatches``, ``--normalize-advantages``,
@@ -74,6 +77,7 @@ from jaxdc.dcg.env import OBSERVATIONS
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.dcg.team.state import MAX_COLLECTORS
 from jaxdc.io import check_not_input, check_output_path
+from jaxdc.nets.registry import ALGOS
 from jaxdc.training.dcg import NETS, DCGRun, DCGSettings, settings_from_metadata
 from jaxdc.training.distributed import is_primary
 
@@ -125,6 +129,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--collectors", type=integer("--collectors", low=1, high=MAX_COLLECTORS), default=1,
                    help=f"k collectors (1..{MAX_COLLECTORS}) sharing one network and the team reward "
                         "(independent actor-critic with parameter sharing: IPPO with the PPO-style options)")
+    g.add_argument("--algo", choices=tuple(ALGOS), default="ippo",
+                   help="the team learner: ippo (each collector's value on its own observation) or mappo (a "
+                        "centralised critic on the world state, Yu et al. 2022; needs --collectors >= 2)")
     add_a2c_arguments(p)
     add_config_arguments(p, "dcg")
     return p
@@ -147,9 +154,9 @@ def settle(args):
                            min_reward_area=args.min_reward_area, eval_episodes=args.eval_episodes,
                            greedy_eval=args.greedy_eval, observation=args.observation,
                            energy_range=None if args.energy_range is None else tuple(args.energy_range),
-                           collectors=args.collectors, init_from=args.init_from)
+                           collectors=args.collectors, init_from=args.init_from, algo=args.algo)
     energy = f"{args.energy:g}" if args.energy_range is None else "{:g}-{:g}".format(*args.energy_range)
-    team = "" if args.collectors == 1 else f"-k{args.collectors}"
+    team = ("" if args.collectors == 1 else f"-k{args.collectors}") + ("" if args.algo == "ippo" else f"-{args.algo}")
     out = args.out or os.path.join("runs", f"dcg-{args.net}{team}-e{energy}-s{seed_tag(args)}")
     return settings, run_control(args, out)
 

@@ -17,7 +17,10 @@ and the problem. :meth:`Learned.game` rebuilds the DCG
 of training, with optional changes (energy, strategy set, reward area, ...); a network trained by a team
 (``collectors`` in its metadata, ``train.dcg --collectors K``) gets the team game
 (:class:`jaxdc.dcg.team.DCGTeam`), and :meth:`Learned.policy` is then one collector's policy, which
-:func:`jaxdc.dcg.team.policies.copies` turns into the team's.
+:func:`jaxdc.dcg.team.policies.copies` turns into the team's. A team trained with a centralised critic
+(``algo: "mappo"``, ``train.dcg --algo mappo``; beyond the thesis, issue 29) loads as its actor alone: a run
+folder's critic parameters (and any a parameter file holds) are dropped
+(:func:`jaxdc.agents.centralised.actor_params`), since only the actor plays.
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ from jaxdc.dcg.env import DCG
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.dcg.team import DCGTeam
 from jaxdc.dcg.team.state import MAX_COLLECTORS
-from jaxdc.nets.registry import DCG_NETS, build
+from jaxdc.nets.registry import ALGOS, DCG_NETS, build, build_critic
 
 #: Networks of section 5.4, in the order of the thesis' figures (the registry :data:`jaxdc.nets.registry.DCG_NETS`).
 NETS = tuple(DCG_NETS)
@@ -93,7 +96,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "obs_history": json_bool, "alpha": optional(json_number(0.0)), "seed": json_int(0, SEED_MAX),
         "steps": json_int(1, None), "updates": json_int(1, None), "energy_range": optional(_energy_range),
         "collectors": json_int(1, MAX_COLLECTORS), "init_from": optional(json_string),
-        "init_sha256": optional(json_string),
+        "init_sha256": optional(json_string), "algo": json_choice(tuple(ALGOS)),
         **options, "env": json_object(options),
     }
 
@@ -227,6 +230,7 @@ class Learned(pretrained.Learned):
                    f", energies {r[0]:g}-{r[1]:g} ({self.metadata.get('observation', 'thesis')} observation), ")
                 + f"strategies {','.join(s['strategies'])}, history {s['history']}, "
                 + (f"a team of {self.collectors} collectors, " if self.collectors > 1 else "")
+                + (f"{algo}, " if (algo := self.metadata.get("algo", "ippo")) != "ippo" else "")
                 + f"{self.steps or '?'} steps, seed {self.metadata.get('seed', '?')} ({self.source})")
 
 
@@ -251,7 +255,10 @@ def load(path: pretrained.PathLike, net: str | None = None) -> Learned:
         return train_state_template(make_network(name, meta.get("history", DEFAULT_SETTING["history"]),
                                                  state_channels(meta)), meta, source)
 
+    from jaxdc.agents.centralised import actor_params
+
     name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net, check_setting=check_setting)
+    params = actor_params(params)  # a MAPPO run's critic only trains: the actor plays
     module = make_network(name, meta.get("history", DEFAULT_SETTING["history"]), state_channels(meta))
     params = _check(name, module, params, meta, source)
     return Learned(name, module, params, meta, source)
@@ -260,7 +267,8 @@ def load(path: pretrained.PathLike, net: str | None = None) -> Learned:
 def train_state_template(module: Any, meta: dict, source: str) -> Any:
     """An initial A2C training state with the structure of a ``train.dcg`` checkpoint of ``meta`` (the restore target).
 
-    Built like ``train.dcg`` builds it: the game of ``meta`` and ``A2CConfig(**meta["algorithm"])``.
+    Built like ``train.dcg`` builds it: the game of ``meta``, ``A2CConfig(**meta["algorithm"])`` and, for a MAPPO
+    run (``algo``), its centralised critic.
     """
     from jaxdc.agents import a2c
 
@@ -273,7 +281,8 @@ def train_state_template(module: Any, meta: dict, source: str) -> Any:
     except (TypeError, ValueError) as e:
         raise ValueError(f"{source}: the metadata has an unusable algorithm configuration: {e}") from None
     aux = opponent_labels(learned.collectors) if getattr(module, "has_aux", False) else None
-    return a2c.make_train(config, env, env_params, module, aux_target=aux).init(jax.random.PRNGKey(0))
+    critic = build_critic(meta.get("algo", "ippo"))  # a MAPPO run's checkpoint holds its critic too
+    return a2c.make_train(config, env, env_params, module, aux_target=aux, critic=critic).init(jax.random.PRNGKey(0))
 
 
 def shipped_names() -> list[str]:

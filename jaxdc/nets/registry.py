@@ -7,6 +7,10 @@ Q-learning, section 4.5.5). Whether a network reads the heuristics of section
 (``uses_heuristics``, ``has_aux``), read through the entry. The registries
 know no problem module: they are keyed by the problem's name (``"dcp"``,
 ``"dcg"``), and a new variant adds its networks here.
+
+Beyond the thesis (issue 29, the team game of the conclusion to chapter 5): the team learners by name
+(:data:`ALGOS`, ``train.dcg --algo``) and the centralised critics they train (:data:`CRITICS`; MAPPO's,
+Yu et al. 2022), built by :func:`build_critic`.
 """
 
 from __future__ import annotations
@@ -16,8 +20,9 @@ from typing import Any, cast
 
 import flax.linen as nn
 
-from jaxdc.core.validate import is_int
+from jaxdc.core.validate import check_choice, is_int
 from jaxdc.nets.cnn import CNN
+from jaxdc.nets.critic import WorldCritic
 from jaxdc.nets.emnn import EMNN
 from jaxdc.nets.enn import ENN, HeuristicNet
 from jaxdc.nets.eqn import EQN
@@ -58,6 +63,12 @@ DCG_NETS: dict[str, NetEntry] = {"vnn": NetEntry(VNN), "imnn": NetEntry(IMNN, ta
                                  "omn_conn": NetEntry(OMNCoNN, takes_history=True)}
 #: The registry of each problem.
 REGISTRIES: dict[str, dict[str, NetEntry]] = {"dcp": DCP_NETS, "dcg": DCG_NETS}
+#: The centralised critics by name (beyond the thesis): MAPPO's value network on the team's world state.
+CRITICS: dict[str, type[nn.Module]] = {"world": WorldCritic}
+#: The team learners (``train.dcg --algo``; beyond the thesis, issue 29) and the critic each trains: ``None`` --
+#: each collector's own value head on its own observation (shared-parameter IPPO, the default), else a
+#: centralised critic of :data:`CRITICS` on the world state (MAPPO, Yu et al. 2022).
+ALGOS: dict[str, str | None] = {"ippo": None, "mappo": "world"}
 
 
 def names(problem: str) -> tuple[str, ...]:
@@ -94,3 +105,10 @@ def build(problem: str, name: str, history: int = 10, num_heuristics: int = 10, 
     if issubclass(e.cls, HeuristicNet):  # ENN, EQN
         return e.cls(num_heuristics, num_actions)
     return e.cls(num_actions)
+
+
+def build_critic(algo: str) -> nn.Module | None:
+    """The centralised critic that team learner ``algo`` (one of :data:`ALGOS`) trains, ``None`` for IPPO (the
+    collectors' own value heads); ``ValueError`` naming ``algo`` and the allowed values for another."""
+    name = ALGOS[check_choice("algo", algo, tuple(ALGOS))]
+    return None if name is None else CRITICS[name]()

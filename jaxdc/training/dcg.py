@@ -14,7 +14,10 @@ With ``collectors = k > 1`` (beyond the thesis: the team game its conclusion to 
 trains one network shared by the ``k`` collectors of :class:`jaxdc.dcg.team.DCGTeam` on the team reward
 (independent actor-critic with parameter sharing, IPPO with the PPO-style options: :mod:`jaxdc.agents.a2c`),
 each collector seeing the teammates plane; the evaluation plays the team (the team reward per game) and the
-opponent-action accuracy is scored per collector against the first opponent's action.
+opponent-action accuracy is scored per collector against the first opponent's action. ``algo="mappo"`` trains the
+same way with a centralised critic on the team's world state (MAPPO, Yu et al. 2022; issue 29:
+:mod:`jaxdc.agents.centralised`, :class:`jaxdc.nets.critic.WorldCritic`); the critic is only for training, so
+:meth:`DCGRun.ship` writes the actor alone.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ import jax.numpy as jnp
 
 from jaxdc import pretrained
 from jaxdc.agents import a2c
+from jaxdc.agents.centralised import actor_params
 from jaxdc.core.energy import check_energy_range
 from jaxdc.core.env import step_batch
 from jaxdc.core.rollout import run_episodes
@@ -45,6 +49,7 @@ from jaxdc.dcg.team.policies import copies
 from jaxdc.dcg.team.state import MAX_COLLECTORS
 from jaxdc.metadata import FORMAT, check_run, recorded_pair, run_settings
 from jaxdc.nets import DCG_NETS, build
+from jaxdc.nets.registry import ALGOS, build_critic
 from jaxdc.nets.transfer import widen_inputs
 from jaxdc.training.fields import SettingError
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
@@ -81,6 +86,9 @@ class DCGSettings:
       init_from: ``None`` (a fresh initialisation, as the thesis) or a trained network of the same kind -- a
         shipped name, a ``.msgpack`` or a ``train.dcg`` run folder -- whose parameters start the run (a warm
         start, beyond the thesis: :func:`start_params`).
+      algo: the team learner, one of :data:`~jaxdc.nets.registry.ALGOS`: ``"ippo"`` (default; each collector's
+        value on its own observation) or ``"mappo"`` (a centralised critic on the world state; ``collectors >= 2``
+        only). Beyond the thesis (issue 29).
     """
 
     net: str
@@ -100,10 +108,16 @@ class DCGSettings:
     energy_range: tuple[float, float] | None = None
     collectors: int = 1
     init_from: str | None = None
+    algo: str = "ippo"
 
     def __post_init__(self) -> None:
         check_choice("observation", self.observation, OBSERVATIONS)
         check_int("collectors", self.collectors, 1, MAX_COLLECTORS)
+        check_choice("algo", self.algo, tuple(ALGOS))
+        if self.algo != "ippo" and self.collectors < 2:
+            raise SettingError(f"{{0}} {SettingError.text(repr(self.algo))} (a centralised critic on a team's world "
+                               f"state) needs {{1}} >= 2, got {self.collectors}; with one collector {{0}} must be "
+                               f"'ippo' (the allowed values: {SettingError.text(tuple(ALGOS))})", "algo", "collectors")
         check_init_from(self.init_from)
         if self.energy_range is not None:
             check_energy_range(self.energy_range, MIN_RANGE_ENERGY)
@@ -200,6 +214,7 @@ def run_metadata(s: DCGSettings, env: DCG | DCGTeam, seeds: Iterable[int],
         **({} if s.observation == "thesis" else {"observation": s.observation}),
         **({} if s.energy_range is None else {"energy_range": list(s.energy_range)}),
         **({} if s.collectors == 1 else {"collectors": s.collectors}),
+        **({} if s.algo == "ippo" else {"algo": s.algo}),
         **init_metadata(s.init_from, init_sha256),
     }
 
@@ -211,7 +226,7 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCGSettings, tuple
     ``where`` (:func:`jaxdc.metadata.check_run`)."""
     meta = check_run(meta, "dcg", where)
     setting = {k: meta[k] for k in ("alpha", "energy", "grid_size", "total_reward", "max_steps", "reward_area",
-                                    "min_reward_area", "observation", "collectors", "init_from")
+                                    "min_reward_area", "observation", "collectors", "init_from", "algo")
                if meta.get(k) is not None}
     if meta.get("energy_range") is not None:
         setting["energy_range"] = recorded_pair(meta["energy_range"], "energy_range", where, " [low, high]")
@@ -244,7 +259,7 @@ class DCGRun(TrainingRun):
         k = s.collectors
         trainer, mesh = spread(a2c.make_train(s.config, self.env, self.env_params, self.net,
                                               aux_target=opponent_labels(k) if aux else None,
-                                              init_params=init_params),
+                                              init_params=init_params, critic=build_critic(s.algo)),
                                control, s.config.num_envs)
 
         def evaluate(params, key):
@@ -278,9 +293,9 @@ class DCGRun(TrainingRun):
 
     def ship(self, path: str, command: str) -> str:
         """Write the final parameters and their metadata (:func:`jaxdc.pretrained.save`); ``path`` empty:
-        ``jaxdc/assets/dcg/NET.msgpack``."""
+        ``jaxdc/assets/dcg/NET.msgpack``. A MAPPO run writes its actor alone (the network that plays)."""
         path = path or os.path.join(pretrained.ASSETS, "dcg", f"{self.settings.net}.msgpack")
         meta = {k: v for k, v in self.metadata.items() if k not in ("format", "algorithm")}
         meta.update(steps=self.config.total_steps, obs_history=self.env.obs_history, command=command,
                     algorithm=dataclasses.asdict(self.config))
-        return pretrained.save(path, self.final_state.params, meta)
+        return pretrained.save(path, actor_params(self.final_state.params), meta)  # the critic only trains

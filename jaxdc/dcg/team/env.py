@@ -25,6 +25,10 @@ One transition, in the order of section 5.3:
 
 The team reward is the items collected by anyone; the episode terminates when every collector is
 disabled or every item is collected, and is truncated at ``max_steps``.
+
+``info`` holds the DCG's keys, the per-collector ``collector_rewards`` and ``collector_outcomes`` ``[k]``, and
+``world_state``: :meth:`~jaxdc.dcg.team.observation.TeamObservation.world_state` of the state the step reached,
+before an auto-reset (a centralised critic's bootstrap of a truncated episode, :mod:`jaxdc.agents.centralised`).
 """
 
 from __future__ import annotations
@@ -221,6 +225,7 @@ class DCGTeam(TeamObservation, Environment[TeamState, EnvParams]):
             "invalid_action": invalid,
             "collector_rewards": rewards,
             "collector_outcomes": collector_outcome,
+            "world_state": self.world_state(new_state, params),
         }
         return self.observe(new_state, params), new_state, reward, terminated, truncated, info
 
