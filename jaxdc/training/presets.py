@@ -132,10 +132,16 @@ DCG_STRONG["omn_conn_strong_areas"] = Preset(
     **DCG_STRONG_RECIPE, reward_area=4, min_reward_area=1)
 #: One OMN+CoNN for every maximum energy 8..25 (the thesis' open problem; docs/generalisation.md, beyond the
 #: thesis): the strong recipe for 5M steps on episodes that each draw their maximum energy from 8..25, read through
-#: the general observation (the budget plane, energies over ``ENERGY_SCALE``). Not trained or shipped yet.
+#: the general observation (the budget plane, energies over ``ENERGY_SCALE``). Shipped (5M steps).
 DCG_GENERAL = {"omn_conn_general": Preset(
     "dcg", "5.8, 5.9 (beyond the thesis: one network for maximum energies 8-25, the general observation)",
     "omn_conn", observation="general", energy_range=(8.0, 25.0), total_steps=5_000_000, **DCG_STRONG_RECIPE)}
+#: ``omn_conn_general`` trained on (docs/generalisation.md, "Continued training"; beyond the thesis): started from the
+#: shipped ``omn_conn_general`` and trained 10M more steps of the same distribution at lr 3e-4 (15M in all).
+DCG_GENERAL["omn_conn_general_long"] = Preset(
+    "dcg", "5.8, 5.9 (beyond the thesis: omn_conn_general trained 10M more steps at lr 3e-4)", "omn_conn",
+    observation="general", energy_range=(8.0, 25.0), total_steps=10_000_000,
+    **{**DCG_STRONG_RECIPE, "lr": 3e-4, "eval_every": 1_000_000}, init_from="omn_conn_general")
 #: The two-collector team (issue 29; the team game the thesis' conclusion to chapter 5 proposes, beyond the thesis):
 #: OMN+CoNN shared by two collectors on the team reward, started from ``omn_conn_strong`` (the team starts as two
 #: copies of it: :func:`jaxdc.training.dcg.start_params`) and trained with the strong recipe at lr 3e-4 for 5M steps.

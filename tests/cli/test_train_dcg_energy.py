@@ -4,15 +4,18 @@ by the loader and by ``eval.dcg energies``."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 
 import numpy as np
 import pytest
 
+from jaxdc import pretrained
 from jaxdc.cli import eval_dcg
 from jaxdc.cli import train_dcg as cli
 from jaxdc.cli.train_common import parse_with_config
+from jaxdc.core.tree_check import digest
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.training import dcg, presets
 from tests.support.cli_checks import refused, tiny_run
@@ -73,6 +76,18 @@ def test_the_named_recipe_settles():
     settings, _ = _settle(["--config", "omn_conn_general"])
     assert settings.energy_range == (8.0, 25.0) and settings.observation == "general" and settings.net == "omn_conn"
     assert presets.EVERY["omn_conn_general"].flags()[:2] == ["--net", "omn_conn"]
+
+
+def test_the_long_general_collector_records_its_recipe_and_the_file_it_started_from():
+    """omn_conn_general_long: the named config's settings, started from the shipped omn_conn_general -- the
+    recorded SHA-256 is that of the shipped file's parameters (a retrained or replaced source would differ)."""
+    settings, _ = _settle(["--config", "omn_conn_general_long"])
+    assert settings.init_from == "omn_conn_general" and settings.config.total_steps == 10_000_000
+    assert settings.config.lr == 3e-4 and settings.energy_range == (8.0, 25.0) and settings.observation == "general"
+    shipped = pretrained.read_metadata(pretrained.shipped("dcg", "omn_conn_general_long"))
+    assert shipped["init_from"] == "omn_conn_general" and shipped["steps"] == 10_000_000
+    assert shipped["init_sha256"] == digest(learned_lib.shipped("omn_conn_general").params)
+    assert shipped["algorithm"] == dataclasses.asdict(settings.config)
 
 
 @pytest.mark.parametrize("argv, match", [
