@@ -28,7 +28,7 @@ standard game over sampled games (``jaxdc.dcg.exact.many_items``) and writes
 one trained with ``train.dcg --energy-range``) at each maximum energy beside
 that bound and the shipped per-energy collectors of Figs. 5.8-5.9
 (``jaxdc.dcg.analysis.energies``) and writes
-``results/dcg/energies_<net>.{json,md}``.
+``results/dcg/energies_<name>_s<seed>.{json,md}`` (``<name>``: the network as given).
 
 Every flag value is checked before any work (numbers finite and in range,
 seeds in ``0 .. 2**32 - 1``, output folders creatable and writable); a bad one

@@ -1,6 +1,7 @@
 """``python -m eval.dcg energies``: one DCG collector at several maximum energies, beside the full-information
 bound at each and the shipped per-energy collectors of Figs. 5.8-5.9 (beyond the thesis: issue 28's "DCG over
-energies"; :mod:`jaxdc.dcg.analysis.energies`). Writes ``results/dcg/energies_<net>_s<seed>.{json,md}``.
+energies"; :mod:`jaxdc.dcg.analysis.energies`). Writes ``results/dcg/energies_<name>_s<seed>.{json,md}``, where
+``<name>`` is the network as given (:func:`network_label`), so two networks of one class do not share a file.
 """
 
 from __future__ import annotations
@@ -41,13 +42,21 @@ def add_parser(sub: Any, prog: str, add_network: Callable[[argparse.ArgumentPars
     p.set_defaults(run=main, error=p.error)
 
 
+def network_label(given: str) -> str:
+    """The file-name part for the network the user gave: a shipped name or ``--net`` as it is, a parameter file's
+    name without ``.msgpack``, a run folder's name (``runs/x/`` -> ``x``)."""
+    base = os.path.basename(os.path.normpath(given))
+    return base[: -len(".msgpack")] if base.endswith(".msgpack") else base
+
+
 def main(args: argparse.Namespace, command: str) -> int:
     """Run the subcommand; the exit status. The output folder, and that no output overwrites the network's files,
     are checked before the games are played."""
     try:
         check_output_folder(args.out, "--out")
         learned = learned_lib.load(args.checkpoint) if args.checkpoint else learned_lib.shipped(args.net)
-        stem = os.path.join(args.out, f"energies_{learned.net_name}_s{args.seed}")
+        given = args.checkpoint or args.net
+        stem = os.path.join(args.out, f"energies_{network_label(given)}_s{args.seed}")
         check_output_folder(args.out, "--out", files=[os.path.basename(stem) + ext for ext in (".json", ".md")],
                             inputs={"--checkpoint": pretrained.read_paths(args.checkpoint, "dcg")
                                     if args.checkpoint else None})
@@ -61,6 +70,7 @@ def main(args: argparse.Namespace, command: str) -> int:
                              specialists=not args.no_specialists, progress=say)
     except (TypeError, ValueError) as e:
         args.error(str(e))
+    table["source"] = given  # as the user gave it (a shipped name, or the path on the command line)
     table["command"] = command
     md = energy_markdown(table)
     atomic_write_set({stem + ".json": json_text({**table, "provenance": provenance()}) + "\n", stem + ".md": md})

@@ -7,8 +7,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import subprocess
-import sys
 import time
 
 import jax
@@ -25,8 +23,7 @@ from jaxdc.dcg.exact.many_items import sampled_bound
 from jaxdc.dcg.learned import init_params, make_network
 from jaxdc.io import json_text
 from jaxdc.viewer import bars
-
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from tests.support.cli_checks import cli_process
 
 
 def _refused(capsys, argv, *words):
@@ -230,13 +227,12 @@ def test_evaluate_unlimited_energy_json_is_strict(capsys, tmp_path, tiny):
 def test_sigint_exits_130_leaving_nothing(tmp_path):
     out = tmp_path / "out"
     env = {**os.environ, "JAXDC_NO_CACHE": "1", "JAX_PLATFORMS": "cpu"}
-    proc = subprocess.Popen([sys.executable, "-m", "eval.dcg", "optimum", "--episodes", "100000", "--no-progress",
-                             "--out", str(out)],
-                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(10)  # the games are being solved by now
-    assert proc.poll() is None
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
+    with cli_process(["eval.dcg", "optimum", "--episodes", "100000", "--no-progress", "--out", str(out)],
+                     env=env) as proc:
+        time.sleep(10)  # the games are being solved by now
+        assert proc.poll() is None
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert "Traceback" not in err
     assert err.strip().splitlines() == ["python -m eval.dcg: interrupted"]

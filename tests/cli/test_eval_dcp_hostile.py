@@ -30,7 +30,7 @@ from jaxdc.dcp.analysis.setting import Setting
 from jaxdc.dcp.analysis.table_results import markdown_table
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.dcp.planners import PlannerConfig
-from tests.support.cli_checks import ROOT, refused, strict_json
+from tests.support.cli_checks import ROOT, cli_process, refused, strict_json
 
 
 def _files(folder):
@@ -244,14 +244,13 @@ def test_dcp_subprocess_error_is_one_line():
 
 def test_dcp_sigint_exits_130_and_leaves_no_partial_set(tmp_path):
     out = tmp_path / "out"
-    p = subprocess.Popen([sys.executable, "-m", "eval.dcp", "--table", "4.3", "--no-learned", "--episodes",
-                          "500000", "--out", str(out)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                         text=True, env=dict(os.environ, JAXDC_NO_CACHE="1"))
-    first = p.stderr.readline()  # "Evaluating Table 4.3 ...": the modules are loaded, the work starts
-    assert first.startswith("Evaluating"), first
-    time.sleep(3)
-    p.send_signal(signal.SIGINT)
-    stdout, stderr = p.communicate(timeout=60)
+    with cli_process(["eval.dcp", "--table", "4.3", "--no-learned", "--episodes", "500000", "--out", str(out)],
+                     env=dict(os.environ, JAXDC_NO_CACHE="1")) as p:
+        first = p.stderr.readline()  # "Evaluating Table 4.3 ...": the modules are loaded, the work starts
+        assert first.startswith("Evaluating"), first
+        time.sleep(3)
+        p.send_signal(signal.SIGINT)
+        stdout, stderr = p.communicate(timeout=60)
     assert p.returncode == 130, stderr
     assert "Traceback" not in stderr
     assert stderr.strip().splitlines()[-1] == "python -m eval.dcp: interrupted"

@@ -10,7 +10,6 @@ import json
 import os
 import signal
 import subprocess
-import sys
 import time
 
 import numpy as np
@@ -20,7 +19,7 @@ from jaxdc.cli import eval_drp as cli
 from jaxdc.core.validate import SEED_MAX
 from jaxdc.drp.analysis import cache
 from jaxdc.drp.analysis.summary import markdown_tables
-from tests.support.cli_checks import ROOT, refused, strict_json
+from tests.support.cli_checks import cli_process, refused, strict_json
 
 
 def _refused(argv, capsys, *needles, code=2):
@@ -210,28 +209,21 @@ def _interrupt_once_working(argv, group):
     import threading
 
     env = {**os.environ, "JAXDC_NO_CACHE": "1"}
-    proc = subprocess.Popen([sys.executable, "-m", "eval.drp", *argv], cwd=ROOT, env=env, start_new_session=True,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     chunks, seen = [], threading.Event()
+    with cli_process(["eval.drp", *argv], env=env, stdout=subprocess.DEVNULL) as proc:
 
-    def read():
-        for chunk in iter(lambda: proc.stderr.read(1), ""):
-            chunks.append(chunk)
-            if chunk == "%":  # tqdm's first "0%|"
-                seen.set()
-    reader = threading.Thread(target=read, daemon=True)
-    reader.start()
-    try:
+        def read():
+            for chunk in iter(lambda: proc.stderr.read(1), ""):
+                chunks.append(chunk)
+                if chunk == "%":  # tqdm's first "0%|"
+                    seen.set()
+        reader = threading.Thread(target=read, daemon=True)
+        reader.start()
         assert seen.wait(120), "".join(chunks)
         time.sleep(1.5)
         (os.killpg if group else os.kill)(proc.pid, signal.SIGINT)
         proc.wait(timeout=60)
         reader.join(timeout=10)
-    finally:
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)  # only what is left of this test's own process group
-        except ProcessLookupError:
-            pass
     return proc.returncode, "".join(chunks)
 
 

@@ -14,6 +14,7 @@ import pytest
 from jaxdc import pretrained
 from jaxdc.cli import eval_dcg
 from jaxdc.cli import train_dcg as cli
+from jaxdc.cli.eval_dcg_energies import network_label
 from jaxdc.cli.train_common import parse_with_config
 from jaxdc.core.tree_check import digest
 from jaxdc.dcg import learned as learned_lib
@@ -68,8 +69,17 @@ def test_eval_energies_writes_the_table_per_energy(run_dir, tmp_path, capsys):
     for r in table["rows"]:
         assert r["bound"]["mean"] > 0 and r["specialist"] is None
         np.testing.assert_allclose(r["ratio"], r["reward"]["mean"] / r["bound"]["mean"])
-    assert sorted(os.listdir(out)) == ["energies_vnn_s0.json", "energies_vnn_s0.md"]
-    assert "| 9 | no |" in open(os.path.join(out, "energies_vnn_s0.md")).read()
+    # named after the network as given (the run folder "tiny"), not its class, so another VNN does not overwrite it;
+    # the source recorded is the argument, not this machine's absolute path
+    assert sorted(os.listdir(out)) == ["energies_tiny_s0.json", "energies_tiny_s0.md"]
+    assert table["source"] == run_dir
+    assert "| 9 | no |" in open(os.path.join(out, "energies_tiny_s0.md")).read()
+
+
+@pytest.mark.parametrize("given, label", [
+    ("omn_conn_general_long", "omn_conn_general_long"), ("nets/a.msgpack", "a"), ("runs/x/", "x"), ("runs/x", "x")])
+def test_energies_files_are_named_after_the_network_as_given(given, label):
+    assert network_label(given) == label
 
 
 def test_the_named_recipe_settles():

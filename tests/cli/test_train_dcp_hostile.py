@@ -13,8 +13,6 @@ import json
 import os
 import shutil
 import signal
-import subprocess
-import sys
 import time
 
 import jax.numpy as jnp
@@ -23,7 +21,13 @@ import pytest
 from jaxdc import checkpoint
 from jaxdc.agents import a2c
 from jaxdc.cli import train_dcg, train_dcp
-from tests.support.cli_checks import ROOT, checkout_env, refused, refused_leaving_no_run, tiny_run, wait_for
+from tests.support.cli_checks import (
+    cli_process,
+    refused,
+    refused_leaving_no_run,
+    tiny_run,
+    wait_for,
+)
 
 # 8 updates of 4 envs x 8 steps on a 4x4 grid; one evaluation and checkpoint at the end.
 TINY = ["--net", "linear", "--grid-size", "4", "--total-reward", "6", "--energy", "4", "8", "--risk", "low",
@@ -182,12 +186,11 @@ def test_ctrl_c_in_train_dcp_exits_130_and_leaves_a_consistent_run(tmp_path):
     argv = [a for a in TINY]
     argv[argv.index("--steps") + 1] = "2000000"
     argv[argv.index("--eval-every") + 1] = "64"
-    proc = subprocess.Popen([sys.executable, "-m", "train.dcp", *argv, "--out", str(out)], cwd=ROOT, env=checkout_env(),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    assert wait_for(lambda: checkpoint.steps(out / "checkpoints"), 60), proc.stderr
-    time.sleep(0.5)
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
+    with cli_process(["train.dcp", *argv, "--out", str(out)]) as proc:
+        assert wait_for(lambda: checkpoint.steps(out / "checkpoints"), 60), proc.stderr
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert err.strip().splitlines() == ["python -m train.dcp: interrupted"], err
     steps = checkpoint.steps(out / "checkpoints")

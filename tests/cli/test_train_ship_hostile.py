@@ -10,14 +10,12 @@ from __future__ import annotations
 
 import os
 import signal
-import subprocess
-import sys
 import time
 
 import pytest
 
 from jaxdc.cli import train_ship
-from tests.support.cli_checks import ROOT, checkout_env, refused, wait_for
+from tests.support.cli_checks import cli_process, refused, wait_for
 
 # ----------------------------------------------------------------------------- flags: train.ship
 
@@ -42,15 +40,14 @@ def test_train_ship_output_folders_are_checked_first(tmp_path, capsys):
 
 def test_ctrl_c_in_train_ship_stops_its_children(tmp_path):
     runs = tmp_path / "runs"
-    proc = subprocess.Popen([sys.executable, "-m", "train.ship", "--only", "enn", "--steps", "100000000",
-                             "--runs", str(runs), "--out", str(tmp_path / "assets")], cwd=ROOT, env=checkout_env(),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    assert wait_for(lambda: (runs / "enn.log").exists(), 30)
-    time.sleep(1.0)
-    children = _children(proc.pid)
-    assert children, "train.ship started no training"
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
+    with cli_process(["train.ship", "--only", "enn", "--steps", "100000000", "--runs", str(runs),
+                      "--out", str(tmp_path / "assets")]) as proc:
+        assert wait_for(lambda: (runs / "enn.log").exists(), 30)
+        time.sleep(1.0)
+        children = _children(proc.pid)
+        assert children, "train.ship started no training"
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert "Traceback" not in err and err.strip().splitlines()[-1] == "python -m train.ship: interrupted", err
     assert not [pid for pid in children if os.path.exists(f"/proc/{pid}") and not _zombie(pid)]

@@ -1,9 +1,14 @@
 """Checks shared by the command-line tests: a refused command line, a tiny finished training run, the checkout's
 subprocesses (``python -m train.*`` from the repository root)."""
 
+import contextlib
 import json
 import os
+import signal
+import subprocess
+import sys
 import time
+from typing import Iterator
 
 #: The repository root: the checkout whose ``train/`` and ``eval/`` shims the subprocess tests start.
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -30,6 +35,23 @@ def wait_for(predicate, timeout: float) -> bool:
             return True
         time.sleep(0.1)
     return False
+
+
+@contextlib.contextmanager
+def cli_process(argv: list, env: dict | None = None, stdout=subprocess.PIPE) -> Iterator[subprocess.Popen]:
+    """``python -m *argv`` started from :data:`ROOT` in a process group of its own (``env``: default
+    :func:`checkout_env`; stderr piped, text). Whatever the test does -- passes, fails an assertion, times out in
+    ``communicate`` -- the group is killed (SIGKILL) on leaving the block, so no CLI, nor any child it started,
+    outlives the test. A signal the test sends with ``proc.send_signal`` reaches the CLI's own process alone (passing it
+    on to its children is the CLI's job, which the Ctrl-C tests check)."""
+    proc = subprocess.Popen([sys.executable, "-m", *argv], cwd=ROOT, env=checkout_env() if env is None else env,
+                            start_new_session=True, stdout=stdout, stderr=subprocess.PIPE, text=True)
+    try:
+        yield proc
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()  # reaps it and closes the pipes
 
 
 def refused(main, argv, capsys, *needles, code=2) -> str:
