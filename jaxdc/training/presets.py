@@ -56,6 +56,7 @@ class Preset:
     reward_area: int | None = None
     min_reward_area: int | None = None
     collectors: int | None = None
+    algo: str | None = None
     init_from: str | None = None
 
     def fields(self) -> dict[str, Any]:
@@ -148,6 +149,12 @@ DCG_GENERAL["omn_conn_general_long"] = Preset(
 DCG_TEAM = {"team2": Preset(
     "dcg", "the team game, two collectors (beyond the thesis: started from omn_conn_strong)", "omn_conn",
     total_steps=5_000_000, **{**DCG_STRONG_RECIPE, "lr": 3e-4}, collectors=2, init_from="omn_conn_strong")}
+#: ``team2`` with a centralised critic (MAPPO, issue 29; docs/dcg.md, "A centralised critic"): the same start, recipe
+#: and budget, the value from :class:`~jaxdc.nets.critic.WorldCritic` on the world state.
+DCG_TEAM["team2_mappo"] = Preset(
+    "dcg", "the team game, two collectors, a centralised critic (beyond the thesis: team2's recipe with MAPPO)",
+    "omn_conn", total_steps=5_000_000, **{**DCG_STRONG_RECIPE, "lr": 3e-4}, collectors=2, algo="mappo",
+    init_from="omn_conn_strong")
 #: The shipped DCP presets (exported by ``train.ship``).
 ALL = {**SHIPPED, **BEYOND}
 #: Every named configuration.

@@ -63,6 +63,26 @@ def test_ippo_is_the_default_and_is_not_recorded():
     assert _settle(TINY[:4])[1].out.endswith("dcg-omn_conn-k2-e15-s0")
 
 
+def test_the_shipped_team2_mappo_records_its_recipe_and_holds_the_actor_alone():
+    """team2_mappo: the named config is team2's with algo mappo; the shipped file records it, the SHA-256 of the
+    shipped omn_conn_strong it started from, and holds the actor only (no critic), playing as a team of two."""
+    settings, _ = _settle(["--config", "team2_mappo"])
+    team2, _ = _settle(["--config", "team2"])
+    assert settings.algo == "mappo" and team2.algo == "ippo"
+    assert settings.config == team2.config and settings.collectors == team2.collectors == 2
+    assert settings.init_from == team2.init_from == "omn_conn_strong"
+    path = pretrained.shipped("dcg", "team2_mappo")
+    shipped = pretrained.read_metadata(path)
+    assert shipped["algo"] == "mappo" and shipped["collectors"] == 2 and shipped["steps"] == 5_000_000
+    env, env_params = dcg.make_env(settings)
+    _, sha = dcg.start_params(settings, env, env_params, learned_lib.make_network("omn_conn", 10, env.state_channels))
+    assert shipped["init_sha256"] == sha  # omn_conn_strong widened to the teammates plane, as for team2
+    raw, _ = pretrained.load(path)
+    assert CRITIC not in raw["params"]
+    net = learned_lib.shipped("team2_mappo")
+    assert net.collectors == 2 and net.metadata["algo"] == "mappo"
+
+
 def test_the_checkpoint_holds_the_critic_and_a_resume_is_exact(run_dir, tmp_path):
     state = _restore(run_dir)
     assert CRITIC in state.params["params"]
