@@ -55,8 +55,9 @@ def test_step_batch_deterministic_and_fallback_used_when_slots_short():
 
 # -- the auto-reset under vmap (core.env.reset_where) -------------------------------------------------------
 def _unbatched_steps(env, keys, state, action, params):
-    """``env.step`` for each environment alone (a Python loop of unbatched steps), stacked."""
-    outs = [env.step(keys[i], jax.tree_util.tree_map(lambda x, i=i: x[i], state), action[i], params)
+    """``env.step`` for each environment alone (a Python loop of unbatched steps, each jitted on its own), stacked."""
+    step = jax.jit(env.step)
+    outs = [step(keys[i], jax.tree_util.tree_map(lambda x, i=i: x[i], state), action[i], params)
             for i in range(keys.shape[0])]
     return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *outs)
 
