@@ -16,7 +16,7 @@ errors (:func:`~jaxdc.dcg.analysis.measures.clearly_above`).
 from __future__ import annotations
 
 from jaxdc.core.claims import Verdict, agreement
-from jaxdc.dcg.analysis.figures import NET_LABELS, Experiment, family
+from jaxdc.dcg.analysis.figures import GENERAL, NET_LABELS, STRONG, Experiment, family
 from jaxdc.dcg.analysis.measures import (
     Bars,
     Claim,
@@ -144,17 +144,21 @@ def _verdicts(exp: Experiment, results: dict, standard: dict | None) -> list[Ver
 
 #: The mark before a claim judged again on the strong (beyond-the-thesis) networks.
 STRONG_MARK = "[strong] "
+#: The mark before a claim judged again on the general networks (one for a range of energies; beyond the thesis).
+GENERAL_MARK = "[general] "
 
 
 def claims(exp: Experiment, results: dict, standard: dict | None = None) -> list[Verdict]:
     """The :class:`Verdict` rows of ``exp``: each claim of :data:`CLAIMS` on the faithful bars, then (where
-    there are strong bars) each claim again on the strong ones, marked ``[strong]``. ``results[group][label]``
+    there are strong bars) each claim again on the strong ones, marked ``[strong]``, and (where there are general
+    bars) on the general ones, marked ``[general]``. ``results[group][label]``
     are stored evaluations (:func:`jaxdc.dcg.analysis.collector_eval.evaluate` dicts), read as
     :class:`~jaxdc.dcg.analysis.measures.Bar` records; ``standard`` is the standard experiment's results (for the
     double-blind claims, which compare with Fig. 5.6)."""
-    rows = _verdicts(exp, family(results, False), family(standard, False) if standard else None)
-    strong = family(results, True)
-    if any(strong.values()):
-        rows += [v._replace(claim=STRONG_MARK + v.claim)
-                 for v in _verdicts(exp, strong, family(standard, True) if standard else None)]
+    rows = _verdicts(exp, family(results), family(standard) if standard else None)
+    for suffix, mark in ((STRONG, STRONG_MARK), (GENERAL, GENERAL_MARK)):
+        bars = family(results, suffix)
+        if any(bars.values()):
+            rows += [v._replace(claim=mark + v.claim)
+                     for v in _verdicts(exp, bars, family(standard, suffix) if standard else None)]
     return rows

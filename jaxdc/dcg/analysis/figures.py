@@ -18,7 +18,12 @@ Beside the thesis' networks, the *strong* ones (trained with the clipped
 surrogate, docs/dcg.md "Strong collectors"; beyond the thesis) join the
 experiments that name them (:attr:`Experiment.strong`) as bars labelled
 ``"VNN strong"`` etc., and every claim of the text is checked on them too,
-separately from the faithful bars (:func:`family`).
+separately from the faithful bars (:func:`family`). Likewise the *general*
+ones (trained over a range of maximum energies, ``train.dcg --energy-range``;
+docs/generalisation.md) join the experiments over energies
+(:attr:`Experiment.general`) as bars labelled ``"OMN+CoNN general"``: one
+network playing every energy of the figure, where the thesis trains one per
+energy.
 """
 
 from __future__ import annotations
@@ -47,6 +52,8 @@ class Experiment:
     five_million: bool = False  # wants networks trained for 5M steps (5.5.6)
     #: which strong networks join the bars: "1m" (trained at most 1M steps), "final" (trained longer), or None
     strong: str | None = None
+    #: whether the general networks (one for a range of maximum energies covering every group) join the bars
+    general: bool = False
     #: whether the charts draw the sampled full-information bound of the game (jaxdc.dcg.exact.many_items)
     game_bound: bool = False
     #: whether a chart of each network's reward per opponent strategy joins the figures (ours, not the thesis')
@@ -58,7 +65,7 @@ EXPERIMENTS = {
     "standard": Experiment("standard", ("5.6", "5.7"), "standard setting (5x5, 10 rewards, energy 15), 1M steps",
                            "", (None,), strong="1m", game_bound=True, per_strategy_chart=True),
     "energy": Experiment("energy", ("5.8", "5.9"), "maximum energy 10, 15, 20 (section 5.5.4)", "energy",
-                         (10.0, 15.0, 20.0)),
+                         (10.0, 15.0, 20.0), general=True),
     "area": Experiment("area", ("5.11", "5.12"), "one unit item in the bottom-right s x s reward area "
                        "(section 5.5.5, Fig. 5.10)", "reward area", (1, 2, 3, 4), strong="final"),
     "standard_5m": Experiment("standard_5m", ("5.16", "5.17"), "standard setting, 5M training steps (section 5.5.6)",
@@ -74,6 +81,10 @@ FIGURES = {f: e.name for e in EXPERIMENTS.values() for f in e.figures}
 
 #: The label suffix of a strong network's bar.
 STRONG = " strong"
+#: The note on a bar of the energy experiment played by the energy-15 network (none retrained at that energy).
+ENERGY_15_NOTE = "trained at energy 15"
+#: The label suffix of a general network's bar (one network for a range of maximum energies).
+GENERAL = " general"
 
 
 def is_strong(meta: dict) -> bool:
@@ -114,6 +125,40 @@ def _trained(meta: dict, strategies, energy: float, five_million: bool, strong: 
             and float(meta.get("energy", 15.0)) == float(energy))
 
 
+def _covers(meta: dict, strategies, energies) -> bool:
+    """Whether ``meta`` describes a general network of the standard game (no reward area) trained on
+    ``strategies`` over a range of maximum energies that holds every one of ``energies``."""
+    r = meta.get("energy_range")
+    return (r is not None and meta.get("reward_area") is None and meta.get("collectors", 1) == 1
+            and tuple(meta.get("strategies", STANDARD_STRATEGIES)) == tuple(strategies)
+            and all(r[0] <= e <= r[1] for e in energies))
+
+
+def total_steps(pool: dict, name: str) -> int:
+    """The training steps of ``pool[name]`` in all: its own and, through ``init_from`` (a warm start), those of
+    the network it started from, where that is in ``pool``."""
+    seen: set[str] = set()
+    total = 0
+    while name in pool and name not in seen:
+        seen.add(name)
+        total += int(pool[name].get("steps", 0))
+        name = pool[name].get("init_from")
+    return total
+
+
+def _general(pool: dict, exp: Experiment) -> dict[str, tuple[str, dict]]:
+    """``{bar label: (file name, metadata)}``: for each network kind, the general network covering every group of
+    ``exp`` that was trained the most steps in all (:func:`total_steps`; ties: the first name)."""
+    chosen: dict[str, tuple[str, dict]] = {}
+    for name in sorted(pool):
+        meta = pool[name]
+        if _covers(meta, exp.trained_strategies, exp.groups):
+            lab = label(meta).removesuffix(STRONG) + GENERAL
+            if lab not in chosen or total_steps(pool, name) > total_steps(pool, chosen[lab][0]):
+                chosen[lab] = (name, meta)
+    return chosen
+
+
 @dataclasses.dataclass(frozen=True)
 class Entry:
     """One bar: which parameter file plays which game."""
@@ -151,10 +196,14 @@ def select(pool: dict, exp: Experiment, group) -> list[Entry]:
             name, note = exact[lab][0], ""
         else:
             name = fallback[lab][0]
-            note = ("trained at energy 15" if exp.name == "energy"
+            note = (ENERGY_15_NOTE if exp.name == "energy"
                     else "trained on the standard set, not retrained" if exp.name == "double_blind" else "")
         entries.append(Entry(lab, name, energy=energy if exp.name == "energy" else None, reward_area=area,
                              strategies=exp.strategies if exp.name == "double_blind" else None, note=note))
+    if exp.general:
+        for lab, (name, meta) in sorted(_general(pool, exp).items(), key=lambda item: _order(item[1][1])):
+            lo, hi = meta["energy_range"]
+            entries.append(Entry(lab, name, energy=energy, note=f"{name}: one network for energies {lo:g}-{hi:g}"))
     return entries
 
 
@@ -179,8 +228,12 @@ def missing(pool: dict, exp: Experiment) -> list[str]:
     return out
 
 
-def family(results: dict, strong: bool) -> dict:
-    """The faithful (``strong=False``) or the strong bars of ``results``, the strong ones under their net's
-    label without the suffix, so that every claim reads the same on both."""
-    return {g: {lb.removesuffix(STRONG): r for lb, r in row.items() if lb.endswith(STRONG) == strong}
+def family(results: dict, suffix: str = "") -> dict:
+    """The bars of ``results`` of one family: the faithful ones (``suffix=""``), the strong ones (:data:`STRONG`)
+    or the general ones (:data:`GENERAL`), under their net's label without the suffix, so that every claim reads
+    the same on each."""
+    def kind(lb: str) -> str:
+        return next((x for x in (STRONG, GENERAL) if lb.endswith(x)), "")
+
+    return {g: {lb.removesuffix(suffix) if suffix else lb: r for lb, r in row.items() if kind(lb) == suffix}
             for g, row in results.items()}

@@ -22,7 +22,7 @@ import math
 import re
 from typing import Callable, NamedTuple
 
-from jaxdc.dcg.analysis.figures import NET_LABELS, label
+from jaxdc.dcg.analysis.figures import ENERGY_15_NOTE, NET_LABELS, label
 from jaxdc.dcg.evaluate import relative_increase
 from jaxdc.dcg.summary import MeanSD, Summary
 
@@ -256,8 +256,9 @@ ENERGIES = (10.0, 15.0, 20.0)
 
 def _energy_shown(r, lab, col):
     at = [mean(r, e, lab, col) for e in ENERGIES]
-    retrained = all(not _note(r, e, lab) for e in (10.0, 20.0))
-    how = "" if retrained else " [played by the energy-15 network: not retrained as in the thesis]"
+    notes = sorted({_note(r, e, lab) for e in (10.0, 20.0)} - {""})
+    how = ("" if not notes else " [played by the energy-15 network: not retrained as in the thesis]"
+           if notes == [ENERGY_15_NOTE] else " [" + "; ".join(notes) + "]")
     at10, at20 = relative_increase(at[0], at[1]), relative_increase(at[2], at[1])
     return at, f"10: {fmt(at10, 1, '%')}, 20: {fmt(at20, 1, '%')} vs 15" + how
 

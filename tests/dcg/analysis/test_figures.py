@@ -2,7 +2,17 @@
 
 from __future__ import annotations
 
-from jaxdc.dcg.analysis.figures import EXPERIMENTS, FIGURES, family, label, missing, select
+from jaxdc.dcg.analysis.figures import (
+    EXPERIMENTS,
+    FIGURES,
+    GENERAL,
+    STRONG,
+    family,
+    label,
+    missing,
+    select,
+    total_steps,
+)
 from jaxdc.dcg.opponents import DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES
 
 
@@ -61,10 +71,11 @@ def test_strong_networks_join_figs_5_6_5_16_and_5_11_only():
     assert "OMN+CoNN trained for 5M steps" in missing(pool, EXPERIMENTS["standard_5m"])
 
 
-def test_family_splits_faithful_and_strong_bars():
-    results = {None: {"VNN": 1, "VNN strong": 2, "OMN+CoNN strong": 3}}
-    assert family(results, False) == {None: {"VNN": 1}}
-    assert family(results, True) == {None: {"VNN": 2, "OMN+CoNN": 3}}
+def test_family_splits_faithful_strong_and_general_bars():
+    results = {None: {"VNN": 1, "VNN strong": 2, "OMN+CoNN strong": 3, "OMN+CoNN general": 4}}
+    assert family(results) == {None: {"VNN": 1}}
+    assert family(results, STRONG) == {None: {"VNN": 2, "OMN+CoNN": 3}}
+    assert family(results, GENERAL) == {None: {"OMN+CoNN": 4}}
 
 
 def test_the_per_strategy_chart_joins_the_one_group_experiments():
@@ -78,3 +89,30 @@ def test_a_network_trained_over_a_range_of_energies_is_no_thesis_bar():
             "omn_conn": _meta("omn_conn")}
     for exp, group in ((EXPERIMENTS["standard"], None), (EXPERIMENTS["energy"], 15.0)):
         assert [e.name for e in select(pool, exp, group) if e.label == "OMN+CoNN"] == ["omn_conn"]
+
+
+def test_the_general_network_trained_longest_joins_the_energy_bars_only():
+    """The energy experiment (Figs. 5.8-5.9) gains one general bar per network kind: of the networks whose energy
+    range holds 10, 15 and 20, the one trained the most steps in all, a warm start counting its source's steps.
+    A range that misses an energy, a reward area, a team or another strategy set does not qualify, and no other
+    experiment shows general bars."""
+    strong = {"algorithm": {"clip_eps": 0.2}}
+    general = dict(_meta("omn_conn", steps=5_000_000), energy_range=[8.0, 25.0], observation="general", **strong)
+    pool = {"omn_conn": _meta("omn_conn"),
+            "omn_conn_general": general,
+            "omn_conn_general_long": dict(general, steps=4_000_000, init_from="omn_conn_general"),  # 9M in all
+            "omn_conn_general_big": dict(general, steps=6_000_000),
+            "omn_conn_low": dict(general, steps=50_000_000, energy_range=[8.0, 12.0]),  # misses 15 and 20
+            "omn_conn_area": dict(general, steps=50_000_000, reward_area=2),
+            "omn_conn_team": dict(general, steps=50_000_000, collectors=2),
+            "omn_conn_db": dict(general, steps=50_000_000, strategies=list(DOUBLE_BLIND_STRATEGIES))}
+    assert total_steps(pool, "omn_conn_general_long") == 9_000_000 and total_steps(pool, "missing") == 0
+    for e in (10.0, 15.0, 20.0):
+        bars = {b.label: b for b in select(pool, EXPERIMENTS["energy"], e)}
+        assert bars["OMN+CoNN general"].name == "omn_conn_general_long" and bars["OMN+CoNN general"].energy == e
+        assert "8-25" in bars["OMN+CoNN general"].note
+        assert [lb for lb in bars if lb.endswith(GENERAL)] == ["OMN+CoNN general"]
+    for name, exp in EXPERIMENTS.items():
+        if name != "energy":
+            assert not any(b.label.endswith(GENERAL) for g in exp.groups for b in select(pool, exp, g)), name
+    assert not any(b.label.endswith(STRONG) for b in select(pool, EXPERIMENTS["energy"], 10.0))
