@@ -124,14 +124,16 @@ def test_a_truncated_episode_bootstraps_from_the_world_state_before_the_reset():
     """info["world_state"] is the world state the step reached, before the auto-reset: the critic's bootstrap."""
     env = DCGTeam(collectors=2, **GAME)
     params = env.make_params(energy=6.0, max_steps=1)
-    _, state = env.reset(jax.random.PRNGKey(0), params)
+    # jitted (the same functions; op by op each call dispatched and compiled hundreds of primitives)
+    reset, step_env, step, world_state = (jax.jit(f) for f in (env.reset, env.step_env, env.step, env.world_state))
+    _, state = reset(jax.random.PRNGKey(0), params)
     actions = jnp.asarray([2, 4])  # down, right: both leave the base
     k_step, _ = jax.random.split(jax.random.PRNGKey(2))  # Environment.step's key of step_env
-    stepped = env.step_env(k_step, state, actions, params)[1]
-    _, fresh, _, _, trunc, info = env.step(jax.random.PRNGKey(2), state, actions, params)
+    stepped = step_env(k_step, state, actions, params)[1]
+    _, fresh, _, _, trunc, info = step(jax.random.PRNGKey(2), state, actions, params)
     assert bool(trunc) and int(fresh.time) == 0
-    np.testing.assert_array_equal(np.asarray(info["world_state"]), np.asarray(env.world_state(stepped, params)))
-    assert not np.array_equal(np.asarray(info["world_state"]), np.asarray(env.world_state(fresh, params)))
+    np.testing.assert_array_equal(np.asarray(info["world_state"]), np.asarray(world_state(stepped, params)))
+    assert not np.array_equal(np.asarray(info["world_state"]), np.asarray(world_state(fresh, params)))
 
 
 def test_a_critic_is_refused_where_there_is_no_team_world_state():

@@ -58,8 +58,9 @@ def test_heuristics_read_each_episodes_own_table():
     env = DCP(total_reward=5)
     maps = _maps()
     params = I.instance_params(env, maps, (16, 16))
-    _, states = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(jax.random.PRNGKey(4), 64), params)
-    h = I.batched_heuristics(params)(states)
+    # jitted: op by op, the batched reset and heuristics dispatched (and compiled) every primitive alone
+    _, states = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(jax.random.split(jax.random.PRNGKey(4), 64), params)
+    h = jax.jit(I.batched_heuristics(params))(states)
     risk_row = np.asarray(h[:, 9])  # the risk of each action's target cell
     ids = np.asarray(states.map_id)
     assert np.all(risk_row[ids == 0] == 0) and np.all(risk_row[ids == 1].max(-1) > 0.5)

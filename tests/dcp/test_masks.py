@@ -68,7 +68,7 @@ def _energy_deaths(env, params, mask):
     obs, _ = env.reset(jax.random.PRNGKey(0), params)
     net_params = net.init(jax.random.PRNGKey(1), obs[None], jnp.zeros((1, 1, 9)))
     policy = a2c.make_policy(net, net_params, mask=mask)
-    final = run_episodes(env, params, policy, jax.random.PRNGKey(2), 200)
+    final = jax.jit(lambda key: run_episodes(env, params, policy, key, 200))(jax.random.PRNGKey(2))  # not op by op
     return int(np.sum(np.asarray(final.outcome) == ENERGY))
 
 
