@@ -151,10 +151,9 @@ DCG_TEAM = {"team2": Preset(
     total_steps=5_000_000, **{**DCG_STRONG_RECIPE, "lr": 3e-4}, collectors=2, init_from="omn_conn_strong")}
 #: ``team2`` with a centralised critic (MAPPO, issue 29; docs/dcg.md, "A centralised critic"): the same start, recipe
 #: and budget, the value from :class:`~jaxdc.nets.critic.WorldCritic` on the world state.
-DCG_TEAM["team2_mappo"] = Preset(
-    "dcg", "the team game, two collectors, a centralised critic (beyond the thesis: team2's recipe with MAPPO)",
-    "omn_conn", total_steps=5_000_000, **{**DCG_STRONG_RECIPE, "lr": 3e-4}, collectors=2, algo="mappo",
-    init_from="omn_conn_strong")
+DCG_TEAM["team2_mappo"] = dataclasses.replace(
+    DCG_TEAM["team2"], algo="mappo",
+    description="the team game, two collectors, a centralised critic (beyond the thesis: team2's recipe with MAPPO)")
 #: The shipped DCP presets (exported by ``train.ship``).
 ALL = {**SHIPPED, **BEYOND}
 #: Every named configuration.

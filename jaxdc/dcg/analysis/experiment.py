@@ -61,7 +61,8 @@ def group_key(g) -> str:
 def network_pool(nets_dir: str | None) -> tuple[dict, str]:
     """``{name: metadata}`` of the DCG parameter files in ``nets_dir`` (default: the shipped ones), and the folder.
 
-    A missing default folder gives an empty pool; a missing ``nets_dir`` raises ``ValueError``.
+    A missing default folder gives an empty pool; a missing ``nets_dir`` raises ``ValueError``, and so does a
+    file whose stored setting fails the loader's checks (:func:`jaxdc.dcg.learned.check_setting`), naming it.
     """
     folder = nets_dir or os.path.join(pretrained.ASSETS, "dcg")
     if not os.path.isdir(folder):
@@ -71,9 +72,10 @@ def network_pool(nets_dir: str | None) -> tuple[dict, str]:
     pool = {}
     for f in sorted(os.listdir(folder)):
         if f.endswith(".msgpack"):
-            meta = pretrained.read_metadata(os.path.join(folder, f))
-            if meta.get("problem") == "dcg":
-                pool[f[: -len(".msgpack")]] = meta
+            path = os.path.join(folder, f)
+            meta = pretrained.read_metadata(path)
+            if meta.get("problem") == "dcg":  # checked as the loader checks it: a bad key names the file and key
+                pool[f[: -len(".msgpack")]] = learned_lib.check_setting(meta, path)
     return pool, folder
 
 

@@ -88,6 +88,22 @@ def test_network_pool_reads_dcg_metadata_only(tmp_path):
     assert "omn_conn" in shipped and all(m["problem"] == "dcg" for m in shipped.values())
 
 
+@pytest.mark.parametrize("key, value, words", [
+    ("energy_range", "8-25", "energy_range must be a pair"),
+    ("steps", "many", "steps='many' must be an int >= 1"),
+    ("init_from", 7, "'init_from'"),
+    ("collectors", 0, "'collectors'"),
+])
+def test_a_pool_file_with_a_bad_setting_is_refused_naming_the_file_and_key(tmp_path, key, value, words):
+    """The figures read the pool's settings (energy ranges, steps, warm starts) before any game: a bad one is the
+    loader's ValueError naming the file and the key, not a TypeError from inside the selection."""
+    (tmp_path / "g.msgpack").write_bytes(b"")
+    (tmp_path / "g.json").write_text(json.dumps({"problem": "dcg", "net": "omn_conn", key: value}))
+    with pytest.raises(ValueError, match="g.msgpack") as e:
+        network_pool(str(tmp_path))
+    assert words in str(e.value) and key in str(e.value)
+
+
 def test_settings_and_group_keys():
     s = ExperimentSettings()
     assert (s.episodes, s.seed, s.greedy, s.bound, s.bound_episodes) == (10_000, 0, False, True, 2000)
