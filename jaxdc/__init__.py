@@ -27,8 +27,8 @@ __all__ = ["DCG", "DCGParams", "DCGState", "DCGTeam", "DCGTeamState", "DCP", "DC
 _GYM_ID = "jaxdc/DCP-v0"
 _DCG_GYM_ID = "jaxdc/DCG-v0"
 #: keyword arguments that go to ``make_params`` rather than the constructor, per environment
-_PARAM_KEYS = {"DCP-v0": ("risk", "energy", "max_steps"), "DCG-v0": ("energy", "max_steps", "chase_tie"),
-               "DCGTeam-v0": ("energy", "max_steps", "chase_tie", "energy_range")}
+_DCG_PARAM_KEYS = ("energy", "max_steps", "chase_tie", "energy_range", "energy_tilt")
+_PARAM_KEYS = {"DCP-v0": ("risk", "energy", "max_steps"), "DCG-v0": _DCG_PARAM_KEYS, "DCGTeam-v0": _DCG_PARAM_KEYS}
 #: the environment class of each id
 _ENVS = {"DCP-v0": DCP, "DCG-v0": DCG, "DCGTeam-v0": DCGTeam}
 

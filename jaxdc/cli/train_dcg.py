@@ -28,7 +28,8 @@ parameters their own initial learning rate (``A2CConfig.aux_lr``).
 ``--reward-area S`` (an option, not in the thesis) trains on the one-item
 game of section 5.5.5 instead of the standard one (docs/dcg.md).
 ``--energy-range LOW HIGH`` (beyond the thesis) draws each episode's maximum
-energy among the integers of the range, and ``--observation general`` shows
+energy among the integers of the range (``--energy-tilt A``: by a power law
+that weights the low budgets), and ``--observation general`` shows
 the collector its budget (docs/generalisation.md): one network for every
 maximum energy. ``--collectors K`` (beyond the thesis) trains one network shared by
 the ``K`` collectors of the team game (:class:`jaxdc.dcg.team.DCGTeam`) on the team
@@ -57,7 +58,7 @@ import sys
 
 from jaxdc import pretrained
 from jaxdc.agents.a2c import A2CConfig
-from jaxdc.cli.args import integer, nonnegative_float, positive_float, positive_int
+from jaxdc.cli.args import integer, nonnegative_float, positive_float, positive_int, real
 from jaxdc.cli.train_common import (
     EXIT_NAN,  # noqa: F401  (re-exported: the exit status after a NaN loss, as tests and scripts read it)
     a2c_settings,
@@ -72,7 +73,7 @@ from jaxdc.cli.train_common import (
     train_from_command_line,
     training_energy,
 )
-from jaxdc.core.energy import ENERGY_SCALE
+from jaxdc.core.energy import ENERGY_SCALE, MAX_ENERGY_TILT
 from jaxdc.dcg.env import OBSERVATIONS
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.dcg.team.state import MAX_COLLECTORS
@@ -125,6 +126,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--energy-range", nargs=2, type=training_energy("--energy-range"), metavar=("LOW", "HIGH"),
                    default=None, help="each episode's maximum energy: a whole number in [LOW, HIGH] (replaces "
                                       "--energy; the evaluation during training draws from the range too)")
+    g.add_argument("--energy-tilt", type=real("--energy-tilt", -MAX_ENERGY_TILT, MAX_ENERGY_TILT), default=0.0,
+                   metavar="A", help="with --energy-range: draw the maximum energy with density proportional to "
+                                     "E**-A (0: uniform, the default; 1: log-uniform; A > 0 weights the low budgets)")
     g = p.add_argument_group("the team game (beyond the thesis; docs/dcg.md)")
     g.add_argument("--collectors", type=integer("--collectors", low=1, high=MAX_COLLECTORS), default=1,
                    help=f"k collectors (1..{MAX_COLLECTORS}) sharing one network and the team reward "
@@ -154,6 +158,7 @@ def settle(args):
                            min_reward_area=args.min_reward_area, eval_episodes=args.eval_episodes,
                            greedy_eval=args.greedy_eval, observation=args.observation,
                            energy_range=None if args.energy_range is None else tuple(args.energy_range),
+                           energy_tilt=args.energy_tilt,
                            collectors=args.collectors, init_from=args.init_from, algo=args.algo)
     energy = f"{args.energy:g}" if args.energy_range is None else "{:g}-{:g}".format(*args.energy_range)
     team = ("" if args.collectors == 1 else f"-k{args.collectors}") + ("" if args.algo == "ippo" else f"-{args.algo}")

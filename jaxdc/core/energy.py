@@ -25,6 +25,8 @@ from jaxdc.core.validate import check_float, value_text
 
 #: The largest finite budget: float32 counts every unit exactly up to 2**24, so ``energy - 1`` always lowers it.
 MAX_FINITE_ENERGY = float(2**24)
+#: The largest magnitude of a power-law tilt of drawn maximum energies (:func:`draw_max_energy`; beyond the thesis).
+MAX_ENERGY_TILT = 8.0
 
 #: The fixed scale of the energy planes of the ``"general"`` observations (DCP and DCG, beyond the thesis;
 #: docs/generalisation.md): energies are divided by it, so any budget up to 64 shows in [0, 1] and larger ones stay
@@ -79,11 +81,32 @@ def check_energy_range(energy_range: Any, minimum: float = 2.0, name: str = "ene
     return low, high
 
 
-def draw_max_energy(key: jax.Array, energy_range: jax.Array) -> jax.Array:
-    """A maximum energy drawn uniformly among the integers of ``energy_range = [low, high]`` (float32; jit/vmap)."""
+def check_energy_tilt(tilt: Any, name: str = "energy_tilt") -> float:
+    """A power-law tilt of a drawn maximum energy (:func:`draw_max_energy`): a finite number in
+    ``[-MAX_ENERGY_TILT, MAX_ENERGY_TILT]``; 0 is the uniform draw. The error names ``name``, the range and the
+    value."""
+    return check_float(name, tilt, -MAX_ENERGY_TILT, MAX_ENERGY_TILT)
+
+
+def draw_max_energy(key: jax.Array, energy_range: jax.Array, tilt: jax.Array | None = None) -> jax.Array:
+    """A maximum energy drawn among the integers of ``energy_range = [low, high]`` (float32; jit/vmap).
+
+    ``tilt`` ``None`` (or 0): uniformly. Otherwise (beyond the thesis) a power law: ``x`` is drawn with density
+    proportional to ``x ** -tilt`` on ``[low, high + 1)`` (inverse CDF; ``tilt = 1`` is log-uniform) and floored, so
+    that each integer ``E`` has probability proportional to the integral of ``x ** -tilt`` over ``[E, E + 1)``:
+    a positive tilt weights the low budgets, a negative one the high ones."""
     low, high = energy_range[0], energy_range[1]
-    max_e = jnp.floor(low + jax.random.uniform(key) * (high - low + 1.0))
-    return jnp.minimum(max_e, high).astype(jnp.float32)
+    u = jax.random.uniform(key)
+    if tilt is None:
+        max_e = jnp.floor(low + u * (high - low + 1.0))
+    else:
+        top = high + 1.0
+        log_uniform = jnp.abs(tilt - 1.0) < 1e-6
+        b = jnp.where(log_uniform, 1.0, 1.0 - tilt)  # 1 - tilt, kept away from 0 in the branch not taken
+        base = jnp.maximum(low**b + u * (top**b - low**b), jnp.finfo(jnp.float32).tiny)  # > 0 after rounding
+        power = base ** (1.0 / b)
+        max_e = jnp.floor(jnp.where(log_uniform, low * (top / low) ** u, power))
+    return jnp.clip(max_e, low, high).astype(jnp.float32)
 
 
 def energy_used(metric: str, in_base: Any, was_in_base: Any) -> jax.Array:

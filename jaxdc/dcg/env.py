@@ -33,7 +33,8 @@ of sections 5.4.3-5.4.5), kept in the state so that everything stays pure.
 Beyond the thesis (its conclusion: "changing the maximum energy level often
 means a fresh network needs to be trained"; docs/generalisation.md): with
 ``make_params(energy_range=(low, high))`` each reset draws the episode's
-maximum energy uniformly among the integers of the range (the collector starts
+maximum energy uniformly among the integers of the range (or, with
+``energy_tilt``, by a power law that weights one end) (the collector starts
 with it and refills to it); the state keeps it (``max_energy``). The
 ``"general"`` observation shows it: a budget plane after ``M^agent``, and every
 energy divided by :data:`~jaxdc.core.energy.ENERGY_SCALE`.
@@ -54,6 +55,7 @@ from jaxdc.core.energy import (
     ENERGY_METRICS,
     check_budget,
     check_energy_range,
+    check_energy_tilt,
     draw_max_energy,
     energy_used,
     step_energy,
@@ -101,6 +103,8 @@ class EnvParams:
     chase_tie: jax.Array  # int32 index into opponents.CHASE_TIES
     # Beyond the thesis: [2] float32, each episode's maximum energy is an int drawn from [low, high] (None: max_energy)
     energy_range: jax.Array | None = None
+    # Beyond the thesis: float32 power-law tilt of that draw (core.energy.draw_max_energy; None: uniform)
+    energy_tilt: jax.Array | None = None
 
 
 @struct.dataclass
@@ -263,7 +267,7 @@ class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
 
     # -- parameters -------------------------------------------------------------------
     def make_params(self, energy: float = 15.0, max_steps: int = 100, chase_tie: str = "straight",
-                    energy_range: Any = None) -> EnvParams:
+                    energy_range: Any = None, energy_tilt: float = 0.0) -> EnvParams:
         """Validated :class:`EnvParams`.
 
         Args:
@@ -276,6 +280,9 @@ class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
             ``(low, high)``, whole numbers ``1 <= low <= high <= 2**24``: each
             episode's maximum energy is drawn uniformly among the integers of
             the range (beyond the thesis); ``energy`` is then not used.
+          energy_tilt: with ``energy_range``, 0 (uniform) or a power-law tilt
+            in ``[-8, 8]`` (:func:`jaxdc.core.energy.draw_max_energy`: a
+            positive tilt weights the low budgets; beyond the thesis).
         """
         e = check_budget("energy", energy)
         check_int("max_steps", max_steps, 1, INT32_MAX)
@@ -285,11 +292,16 @@ class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
             max_steps=jnp.int32(max_steps),
             chase_tie=jnp.int32(CHASE_TIES.index(chase_tie)),
         )
+        tilt = check_energy_tilt(energy_tilt)
         if energy_range is None:
+            if tilt != 0.0:
+                raise ValueError(f"energy_tilt tilts the draw of energy_range and needs one, got energy_tilt={tilt:g} "
+                                 "with energy_range=None (0 without a range)")
             return params
         low, high = check_energy_range(energy_range, MIN_RANGE_ENERGY)
         return dataclasses.replace(params, max_energy=jnp.float32(high),
-                                   energy_range=jnp.asarray([low, high], jnp.float32))
+                                   energy_range=jnp.asarray([low, high], jnp.float32),
+                                   energy_tilt=None if tilt == 0.0 else jnp.float32(tilt))
 
     def reward_area_cells(self, size: int | None = None) -> np.ndarray:
         """Row-major flat indices of the cells that can hold an item (section 5.5.5, Fig. 5.10).
@@ -330,7 +342,8 @@ class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
         n, cells = self.grid_size, self.grid_size**2
         budget = {}
         if params.energy_range is not None:  # its own stream: the rest draws as with a fixed energy
-            budget["max_energy"] = draw_max_energy(jax.random.fold_in(key, ENERGY_STREAM), params.energy_range)
+            budget["max_energy"] = draw_max_energy(jax.random.fold_in(key, ENERGY_STREAM), params.energy_range,
+                                                  params.energy_tilt)
         k_items, k_opp, k_target, k_strat = jax.random.split(key, 4)
         if self.reward_area is None:
             items, _ = drop_units(k_items, self.total_reward, cells, 0 if self.items_on_base else 1)

@@ -77,7 +77,7 @@ def _energy_range(name: str, value: Any) -> tuple[float, float]:
 def _setting_schema() -> dict[str, pretrained.SettingCheck]:
     """The checks of a DCG network's stored setting: those of ``train.dcg``'s and ``eval.dcg``'s flags (the
     constructor's choices and ranges), strict about JSON types."""
-    from jaxdc.core.energy import ENERGY_METRICS, MAX_FINITE_ENERGY
+    from jaxdc.core.energy import ENERGY_METRICS, MAX_ENERGY_TILT, MAX_FINITE_ENERGY
     from jaxdc.core.sampling import MAX_TOTAL_REWARD
     from jaxdc.core.validate import SEED_MAX
     from jaxdc.dcg import env as dcg_env
@@ -95,6 +95,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "strategies": _strategies, "history": json_int(0), "chase_tie": json_choice(CHASE_TIES),
         "obs_history": json_bool, "alpha": optional(json_number(0.0)), "seed": json_int(0, SEED_MAX),
         "steps": json_int(1, None), "updates": json_int(1, None), "energy_range": optional(_energy_range),
+        "energy_tilt": json_number(-MAX_ENERGY_TILT, MAX_ENERGY_TILT),
         "collectors": json_int(1, MAX_COLLECTORS), "init_from": optional(json_string),
         "init_sha256": optional(json_string), "algo": json_choice(tuple(ALGOS)),
         **options, "env": json_object(options),
@@ -187,8 +188,9 @@ class Learned(pretrained.Learned):
              max_steps: int | None = None) -> tuple[DCG | DCGTeam, Any]:
         """``(env, params)``: the DCG of training, with the given settings changed.
 
-        A network trained over a range of maximum energies (``energy_range`` in its metadata) plays that range
-        unless ``energy`` fixes one. ``reward_area`` (Figs. 5.10-5.12) places one unit item uniformly in the
+        A network trained over a range of maximum energies (``energy_range`` in its metadata) plays that range,
+        each integer equally likely (a training ``energy_tilt`` is not the game it is judged on), unless ``energy``
+        fixes one. ``reward_area`` (Figs. 5.10-5.12) places one unit item uniformly in the
         bottom-right ``s x s`` square. The initial states depend only on the
         key, not on the network, so two networks evaluated with the same key
         play the same games.

@@ -33,7 +33,7 @@ import jax.numpy as jnp
 from jaxdc import pretrained
 from jaxdc.agents import a2c
 from jaxdc.agents.centralised import actor_params
-from jaxdc.core.energy import check_energy_range
+from jaxdc.core.energy import check_energy_range, check_energy_tilt
 from jaxdc.core.env import step_batch
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import episode_summary
@@ -81,6 +81,8 @@ class DCGSettings:
       energy_range: ``None`` (every episode has ``energy``) or ``(low, high)``: each training and evaluation
         episode draws its maximum energy among the integers of the range (beyond the thesis); ``energy`` is then
         only recorded.
+      energy_tilt: with ``energy_range``, 0 (uniform) or a power-law tilt of the draw
+        (:func:`jaxdc.core.energy.draw_max_energy`; a positive tilt weights the low budgets; beyond the thesis).
       collectors: ``k``, 1 (the thesis' game) .. :data:`~jaxdc.dcg.team.state.MAX_COLLECTORS`; with ``k > 1`` the
         team game (module docs; beyond the thesis).
       init_from: ``None`` (a fresh initialisation, as the thesis) or a trained network of the same kind -- a
@@ -106,6 +108,7 @@ class DCGSettings:
     greedy_eval: bool = False
     observation: str = "thesis"
     energy_range: tuple[float, float] | None = None
+    energy_tilt: float = 0.0
     collectors: int = 1
     init_from: str | None = None
     algo: str = "ippo"
@@ -121,6 +124,9 @@ class DCGSettings:
         check_init_from(self.init_from)
         if self.energy_range is not None:
             check_energy_range(self.energy_range, MIN_RANGE_ENERGY)
+        if check_energy_tilt(self.energy_tilt) != 0.0 and self.energy_range is None:
+            raise SettingError(f"{{0}}={self.energy_tilt:g} tilts the draw of {{1}} and needs it: without {{1}}, "
+                               "{0} must be 0", "energy_tilt", "energy_range")
 
     @property
     def has_aux(self) -> bool:
@@ -165,7 +171,8 @@ def make_env(s: DCGSettings) -> tuple[DCG | DCGTeam, Any]:
                                    reward_area=s.reward_area, min_reward_area=s.min_reward_area,
                                    observation=s.observation)
     env = DCG(**options) if s.collectors == 1 else DCGTeam(collectors=s.collectors, **options)
-    return env, env.make_params(energy=s.energy, max_steps=s.max_steps, energy_range=s.energy_range)
+    return env, env.make_params(energy=s.energy, max_steps=s.max_steps, energy_range=s.energy_range,
+                                energy_tilt=s.energy_tilt)
 
 
 def start_params(s: DCGSettings, env: DCG | DCGTeam, env_params: Any, net: Any) -> tuple[Any, str] | None:
@@ -213,6 +220,7 @@ def run_metadata(s: DCGSettings, env: DCG | DCGTeam, seeds: Iterable[int],
         # beyond the thesis, written only when set (the thesis' runs' files are unchanged)
         **({} if s.observation == "thesis" else {"observation": s.observation}),
         **({} if s.energy_range is None else {"energy_range": list(s.energy_range)}),
+        **({} if s.energy_tilt == 0.0 else {"energy_tilt": s.energy_tilt}),
         **({} if s.collectors == 1 else {"collectors": s.collectors}),
         **({} if s.algo == "ippo" else {"algo": s.algo}),
         **init_metadata(s.init_from, init_sha256),
@@ -226,7 +234,7 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCGSettings, tuple
     ``where`` (:func:`jaxdc.metadata.check_run`)."""
     meta = check_run(meta, "dcg", where)
     setting = {k: meta[k] for k in ("alpha", "energy", "grid_size", "total_reward", "max_steps", "reward_area",
-                                    "min_reward_area", "observation", "collectors", "init_from", "algo")
+                                    "min_reward_area", "observation", "energy_tilt", "collectors", "init_from", "algo")
                if meta.get(k) is not None}
     if meta.get("energy_range") is not None:
         setting["energy_range"] = recorded_pair(meta["energy_range"], "energy_range", where, " [low, high]")

@@ -23,7 +23,8 @@ from tests.support.cli_checks import refused, tiny_run
 
 # 3x3 grid, 3 items, the restricted chaser, VNN (no history planes); one update of 16 envs x 8 steps.
 TINY = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies", "restricted", "--max-steps", "20",
-        "--energy-range", "3", "8", "--observation", "general", "--steps", "128", "--envs", "16", "--t-max", "8",
+        "--energy-range", "3", "8", "--energy-tilt", "1.5", "--observation", "general", "--steps", "128",
+        "--envs", "16", "--t-max", "8",
         "--eval-every", "128", "--eval-episodes", "16", "--no-progress"]
 
 
@@ -39,13 +40,15 @@ def _settle(argv):
 def test_the_run_records_the_range_and_config_reproduces_it(run_dir):
     with open(os.path.join(run_dir, "config.json")) as f:
         meta = json.load(f)
-    assert meta["energy_range"] == [3.0, 8.0] and meta["observation"] == "general"
+    assert meta["energy_range"] == [3.0, 8.0] and meta["energy_tilt"] == 1.5 and meta["observation"] == "general"
     settings, _ = _settle(TINY + ["--out", run_dir])
     again, _ = _settle(["--config", os.path.join(run_dir, "config.json"), "--eval-episodes", "16"])
     assert again == settings and again.energy_range == (3.0, 8.0) and again.observation == "general"
-    # the faithful default writes neither key
+    assert again.energy_tilt == 1.5
+    # the faithful default writes none of the keys
     plain, _ = _settle(["--net", "vnn"])
-    assert "energy_range" not in dcg.run_metadata(plain, dcg.DCG(), [0]) and plain.observation == "thesis"
+    assert not {"energy_range", "energy_tilt"} & set(dcg.run_metadata(plain, dcg.DCG(), [0]))
+    assert plain.observation == "thesis" and plain.energy_tilt == 0.0
 
 
 def test_the_network_plays_its_range_or_any_fixed_energy(run_dir):
@@ -107,6 +110,9 @@ def test_the_long_general_collector_records_its_recipe_and_the_file_it_started_f
     (["--energy-range", "inf", "12"], "--energy-range"),
     (["--energy-range", "8"], "--energy-range"),
     (["--observation", "budget"], "--observation"),
+    (["--energy-range", "8", "12", "--energy-tilt", "9"], "--energy-tilt"),
+    (["--energy-range", "8", "12", "--energy-tilt", "nan"], "--energy-tilt"),
+    (["--energy-tilt", "1"], "--energy-tilt=1 tilts the draw of --energy-range and needs it"),
 ])
 def test_bad_ranges_and_observations_are_usage_errors(argv, match, capsys, tmp_path):
     refused(cli.main, ["--net", "vnn", "--out", str(tmp_path / "x")] + argv, capsys, match)

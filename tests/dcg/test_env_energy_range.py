@@ -4,9 +4,11 @@ faithful default unchanged."""
 
 from __future__ import annotations
 
+import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from jaxdc.core.energy import ENERGY_SCALE
 from jaxdc.core.env import step_batch
@@ -28,6 +30,29 @@ def test_draws_every_integer_of_the_range_and_starts_full():
     counts = np.bincount(drawn.astype(int))[8:]
     assert counts.min() > 2000 / 18 * 0.6 and counts.max() < 2000 / 18 * 1.4  # about uniform (111 each)
     np.testing.assert_array_equal(np.asarray(state.energy), drawn)  # the collector starts with full energy
+
+
+@pytest.mark.parametrize("tilt", [1.0, 2.0, -1.5])
+def test_a_tilted_draw_follows_its_power_law(tilt):
+    """``energy_tilt``: each integer E of the range has the mass of ``x ** -tilt`` over [E, E + 1)."""
+    env = DCG()
+    keys = jax.random.split(jax.random.PRNGKey(7), 20000)
+    drawn = np.asarray(_reset_many(env, env.make_params(energy_range=(8, 25), energy_tilt=tilt), keys)[1].max_energy)
+    edges = np.arange(8.0, 27.0)
+    mass = np.diff(np.log(edges) if tilt == 1.0 else edges ** (1.0 - tilt) / (1.0 - tilt))
+    expected = mass / mass.sum()
+    observed = np.bincount(drawn.astype(int), minlength=26)[8:] / drawn.size
+    se = np.sqrt(expected * (1 - expected) / drawn.size)
+    assert np.all(np.abs(observed - expected) < 5 * se), (observed, expected)
+    assert (expected[0] > expected[-1]) == (tilt > 0)  # a positive tilt weights the low budgets
+
+
+def test_a_zero_tilt_is_the_uniform_draw():
+    env = DCG()
+    uniform = env.make_params(energy_range=(8, 25))
+    zero = env.make_params(energy_range=(8, 25), energy_tilt=0.0)
+    assert zero.energy_tilt is None  # the same params, so the same games
+    chex.assert_trees_all_equal(uniform, zero)
 
 
 def test_draw_is_deterministic_by_key_and_vmaps_over_ranges():

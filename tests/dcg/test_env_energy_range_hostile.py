@@ -43,6 +43,30 @@ def test_bad_energy_ranges_are_refused_by_the_training_settings(energy_range, er
         DCGSettings(net="vnn", config=A2CConfig(), energy_range=energy_range)
 
 
+@pytest.mark.parametrize("tilt, error, match", [
+    (float("nan"), ValueError, "energy_tilt must be >= -8 and <= 8, got NaN"),
+    (9.0, ValueError, "energy_tilt must be >= -8 and <= 8, got 9"),
+    (-8.5, ValueError, "energy_tilt must be >= -8 and <= 8, got -8.5"),
+    (float("inf"), ValueError, "energy_tilt"),
+    ("1", TypeError, "energy_tilt must be a number"),
+    (None, TypeError, "energy_tilt must be a number"),
+])
+def test_bad_energy_tilts_are_refused_by_make_params(tilt, error, match):
+    with pytest.raises(error, match=match):
+        DCG().make_params(energy_range=(8, 25), energy_tilt=tilt)
+
+
+def test_a_tilt_needs_a_range():
+    from jaxdc.agents.a2c import A2CConfig
+
+    with pytest.raises(ValueError, match="energy_tilt tilts the draw of energy_range and needs one, got energy_tilt=1"):
+        DCG().make_params(energy_tilt=1.0)
+    with pytest.raises(ValueError, match="energy_tilt=2 tilts the draw of energy_range"):
+        DCGSettings(net="vnn", config=A2CConfig(), energy_tilt=2.0)
+    with pytest.raises(ValueError, match="energy_tilt must be >= -8"):
+        DCGSettings(net="vnn", config=A2CConfig(), energy_range=(8, 25), energy_tilt=10.0)
+
+
 def test_the_smallest_budget_is_one_for_the_dcg_and_two_for_the_dcp():
     assert DCG().make_params(energy_range=(1, 1)).energy_range.tolist() == [1.0, 1.0]
     assert check_energy_range((1, 3), 1.0) == (1.0, 3.0)
