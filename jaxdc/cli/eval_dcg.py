@@ -52,6 +52,7 @@ from jaxdc.cli.args import integer, positive_float, positive_int, seed
 from jaxdc.cli.eval_dcg_settings import EvaluateSettings, FigureSettings, OptimumSettings, RenderSettings
 from jaxdc.cli.runner import run
 from jaxdc.core.energy import MAX_FINITE_ENERGY
+from jaxdc.core.masks import MASKS
 from jaxdc.core.trajectory import play_episode
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis.claims import claims
@@ -147,6 +148,13 @@ def _add_game(p):
     p.add_argument("--greedy", action="store_true", help="argmax policy (default: sample from pi, as the thesis)")
 
 
+def _add_mask(p):
+    p.add_argument("--mask", choices=MASKS, default="none",
+                   help="play one collector under an action mask (beyond the thesis): reach_base, a move must leave "
+                        "the energy to get home; reach_base_or_item, or to reach an item, or it takes one "
+                        "(default none, the thesis' policy)")
+
+
 def _figure_order(fig: str):
     return tuple(map(int, fig.split(".")))
 
@@ -170,6 +178,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rpe-zero", choices=("exclude", "zero"), default="exclude",
                    help="RPE of a game that used no energy: left out (default) or 0")
     p.add_argument("--no-bound", action="store_true", help="with --reward-area: skip the exact bound")
+    _add_mask(p)
     p.add_argument("--collectors", type=integer("--collectors", low=1, high=MAX_COLLECTORS), default=None,
                    help="play the team game (beyond the thesis): a one-collector network as K copies; a network "
                         "trained as a team plays its own size (the default)")
@@ -254,7 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=RESULTS, help="folder for the result JSON")
     p.set_defaults(run=_optimum, error=p.error)
 
-    energies.add_parser(sub, PROG, _add_network, RESULTS)
+    energies.add_parser(sub, PROG, _add_network, RESULTS, _add_mask)
     return parser
 
 
@@ -311,12 +320,15 @@ def _evaluate(args, command) -> int:
         if not s.json:
             print(f"Evaluating {learned.describe()}: {s.episodes} games, seed {s.seed} ...", file=sys.stderr)
         if team:
+            if s.mask != "none":
+                raise ValueError(f"--mask {s.mask} plays one collector; a team (--collectors, or a network trained "
+                                 "as a team) plays without one")
             r = evaluate_learned_team(learned, s.collectors, episodes=s.episodes, seed=s.seed, greedy=s.greedy,
                                       energy=s.energy, strategies=s.strategies, max_steps=s.max_steps)
         else:
             r = evaluate(learned, episodes=s.episodes, seed=s.seed, energy=s.energy, strategies=s.strategies,
                          reward_area=s.reward_area, max_steps=s.max_steps, greedy=s.greedy, rpe_zero=s.rpe_zero,
-                         bound=s.bound)
+                         bound=s.bound, mask=s.mask)
     except (TypeError, ValueError) as e:
         args.error(str(e))
     r["command"] = command

@@ -23,8 +23,10 @@ from jaxdc.provenance import provenance
 ENERGIES = [8, 10, 12, 15, 20, 25]
 
 
-def add_parser(sub: Any, prog: str, add_network: Callable[[argparse.ArgumentParser], None], results: str) -> None:
-    """The ``energies`` subcommand's parser on ``sub`` (``add_network``: the ``--checkpoint``/``--net`` group)."""
+def add_parser(sub: Any, prog: str, add_network: Callable[[argparse.ArgumentParser], None], results: str,
+               add_mask: Callable[[argparse.ArgumentParser], None]) -> None:
+    """The ``energies`` subcommand's parser on ``sub`` (``add_network``: the ``--checkpoint``/``--net`` group;
+    ``add_mask``: ``--mask``)."""
     p = sub.add_parser("energies", prog=f"{prog} energies", help="one collector at several maximum energies",
                        description="Play one collector at each maximum energy beside the full-information bound there "
                                    "and the shipped per-energy collectors of Figs. 5.8-5.9 (beyond the thesis).")
@@ -37,6 +39,7 @@ def add_parser(sub: Any, prog: str, add_network: Callable[[argparse.ArgumentPars
     p.add_argument("--seed", type=seed("--seed"), default=0)
     p.add_argument("--greedy", action="store_true", help="argmax policy (default: sample from pi, as the thesis)")
     p.add_argument("--no-specialists", action="store_true", help="skip the shipped per-energy collectors")
+    add_mask(p)
     p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
     p.add_argument("--out", default=results, help="folder for the JSON and markdown")
     p.set_defaults(run=main, error=p.error)
@@ -56,7 +59,8 @@ def main(args: argparse.Namespace, command: str) -> int:
         check_output_folder(args.out, "--out")
         learned = learned_lib.load(args.checkpoint) if args.checkpoint else learned_lib.shipped(args.net)
         given = args.checkpoint or args.net
-        stem = os.path.join(args.out, f"energies_{network_label(given)}_s{args.seed}")
+        play = ("_greedy" if args.greedy else "") + ("" if args.mask == "none" else f"_mask-{args.mask}")
+        stem = os.path.join(args.out, f"energies_{network_label(given)}{play}_s{args.seed}")
         check_output_folder(args.out, "--out", files=[os.path.basename(stem) + ext for ext in (".json", ".md")],
                             inputs={"--checkpoint": pretrained.read_paths(args.checkpoint, "dcg")
                                     if args.checkpoint else None})
@@ -67,7 +71,7 @@ def main(args: argparse.Namespace, command: str) -> int:
         say = None if args.json else (lambda m: print(m, file=sys.stderr))
         table = energy_table(learned, args.energies, episodes=args.episodes, seed=args.seed,
                              bound_episodes=args.bound_episodes, greedy=args.greedy,
-                             specialists=not args.no_specialists, progress=say)
+                             specialists=not args.no_specialists, progress=say, mask=args.mask)
     except (TypeError, ValueError) as e:
         args.error(str(e))
     table["source"] = given  # as the user gave it (a shipped name, or the path on the command line)

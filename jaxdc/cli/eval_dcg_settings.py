@@ -42,12 +42,13 @@ class EvaluateSettings:
     json: bool
     out: str
     collectors: int | None = None  # the team game (beyond the thesis); None: the network's own
+    mask: str = "none"  # an action mask (beyond the thesis; jaxdc.core.masks.MASKS)
 
     @classmethod
     def from_args(cls, args) -> "EvaluateSettings":
         return cls(args.checkpoint, args.net, args.energy, _strategy_set(args), args.reward_area, args.max_steps,
                    args.greedy, args.episodes, args.seed, args.rpe_zero, not args.no_bound, args.json, args.out,
-                   args.collectors)
+                   args.collectors, args.mask)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -30,9 +30,10 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from jaxdc.core.masks import MASKS, make_mask
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import RPE_ZERO, episode_summary
-from jaxdc.core.validate import check_positive_int
+from jaxdc.core.validate import check_choice, check_positive_int
 from jaxdc.dcg.env import DCG, OUTCOMES, EnvParams, EnvState
 from jaxdc.dcg.summary import MeanSD, Summary
 
@@ -140,27 +141,31 @@ def evaluate_policy(env: DCG, params: EnvParams, policy: Callable, key, episodes
     return jax.jit(lambda k: run_episodes(scored, params, play, k, episodes, lanes))(key)
 
 
-@functools.partial(jax.jit, static_argnames=("env", "net", "greedy", "episodes", "lanes"))
-def _run_network(env, params, net, net_params, key, greedy, episodes, lanes):
+@functools.partial(jax.jit, static_argnames=("env", "net", "greedy", "episodes", "lanes", "mask"))
+def _run_network(env, params, net, net_params, key, greedy, episodes, lanes, mask):
     from jaxdc.agents.a2c import make_policy
 
-    play = with_prediction(make_policy(net, net_params, None, greedy=greedy), aux_predictor(net, net_params))
+    policy = make_policy(net, net_params, None, greedy=greedy, mask=make_mask(mask, env.grid_size))
+    play = with_prediction(policy, aux_predictor(net, net_params))
     return run_episodes(Scored(env), params, play, key, episodes, lanes)
 
 
 def evaluate_network(env: DCG, params: EnvParams, net, net_params, key, episodes: int = EPISODES,
-                     greedy: bool = False, lanes: int | None = LANES) -> ScoredState:
+                     greedy: bool = False, lanes: int | None = LANES, mask: str = "none") -> ScoredState:
     """:func:`evaluate_policy` of a DCG network (section 5.4) with its opponent-action accuracy when it has a head.
 
     The collector samples from ``pi`` (section 5.5.1: "The collector's policy
-    is stochastic"), or takes its argmax if ``greedy``. Compiled once per
+    is stochastic"), or takes its argmax if ``greedy``; ``mask`` (one of
+    :data:`jaxdc.core.masks.MASKS`; beyond the thesis) restricts it to the
+    actions that keep its energy the way home (or to an item). Compiled once per
     environment configuration and network; energies, step caps and parameters
     of the same shapes reuse the compiled code.
     """
     if not isinstance(env, DCG):
         raise TypeError(f"env must be a jaxdc.dcg.env.DCG, got {type(env).__name__}")
     episodes = check_positive_int("episodes", episodes)
-    return _run_network(env, params, net, net_params, key, bool(greedy), episodes, lanes)
+    check_choice("mask", mask, MASKS)
+    return _run_network(env, params, net, net_params, key, bool(greedy), episodes, lanes, mask)
 
 
 def accuracy(correct, predicted) -> float | None:

@@ -213,12 +213,18 @@ class Learned(pretrained.Learned):
                                  chase_tie=s["chase_tie"], energy_range=energy_range)
         return env, params
 
-    def policy(self, greedy: bool = False) -> Callable:
+    def policy(self, greedy: bool = False, mask: str = "none") -> Callable:
         """``policy(key, obs, state) -> action``: samples from ``pi`` (section 5.5.1: "The collector's policy is
-        stochastic"), or takes its argmax if ``greedy`` (the deterministic policy of Figs. 5.13-5.15)."""
-        from jaxdc.agents import a2c
+        stochastic"), or takes its argmax if ``greedy`` (the deterministic policy of Figs. 5.13-5.15).
 
-        return a2c.make_policy(self.net, self.params, None, greedy=greedy)
+        ``mask``: one of :data:`jaxdc.core.masks.MASKS` (beyond the thesis; ``"none"``, the thesis' policy): the
+        collector plays among the actions that leave its energy the way home (``"reach_base"``) or to an item
+        (``"reach_base_or_item"``); one collector's state only."""
+        from jaxdc.agents import a2c
+        from jaxdc.core.masks import make_mask
+
+        return a2c.make_policy(self.net, self.params, None, greedy=greedy,
+                               mask=make_mask(mask, int(self.setting()["grid_size"])))
 
     def describe(self) -> str:
         """One line: network, training setting and source."""

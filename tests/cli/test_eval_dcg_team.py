@@ -46,6 +46,7 @@ def test_a_team_network_plays_only_its_own_team_size():
     (["--collectors", "5"], ("--collectors", "5")),
     (["--collectors", "0"], ("--collectors", "0")),
     (["--collectors", "2", "--reward-area", "2"], ("--reward-area", "team")),
+    (["--collectors", "2", "--mask", "reach_base"], ("--mask reach_base", "one collector", "team")),
 ])
 def test_bad_team_flags_are_refused(argv, needles, tmp_path, capsys):
     refused(eval_dcg.main, ["--net", "omn_conn_strong", "--episodes", "4", "--out", str(tmp_path), *argv], capsys,

@@ -103,6 +103,17 @@ def test_the_long_general_collector_records_its_recipe_and_the_file_it_started_f
     assert shipped["algorithm"] == dataclasses.asdict(settings.config)
 
 
+def test_the_tilted_general_collector_records_its_recipe_and_the_file_it_started_from():
+    """omn_conn_general_tilt: omn_conn_general_long trained on with energy_tilt 2, from the shipped file."""
+    settings, _ = _settle(["--config", "omn_conn_general_tilt"])
+    assert settings.init_from == "omn_conn_general_long" and settings.energy_tilt == 2.0
+    assert settings.config.total_steps == 5_000_000 and settings.config.lr == 2e-4
+    shipped = pretrained.read_metadata(pretrained.shipped("dcg", "omn_conn_general_tilt"))
+    assert shipped["energy_tilt"] == 2.0 and shipped["energy_range"] == [8.0, 25.0] and shipped["seed"] == 4
+    assert shipped["init_sha256"] == digest(learned_lib.shipped("omn_conn_general_long").params)
+    assert shipped["algorithm"] == dataclasses.asdict(settings.config)
+
+
 @pytest.mark.parametrize("argv, match", [
     (["--energy-range", "8", "3"], "energy_range: low (8) must not exceed high (3)"),
     (["--energy-range", "8.5", "12"], "energy_range low must be a whole number, got 8.5"),
@@ -116,3 +127,30 @@ def test_the_long_general_collector_records_its_recipe_and_the_file_it_started_f
 ])
 def test_bad_ranges_and_observations_are_usage_errors(argv, match, capsys, tmp_path):
     refused(cli.main, ["--net", "vnn", "--out", str(tmp_path / "x")] + argv, capsys, match)
+
+
+def test_a_collector_under_the_reach_base_mask_never_runs_dry(run_dir):
+    """``mask="reach_base"`` (beyond the thesis, jaxdc.core.masks): the DCG shares the DCP's energy rule, so a
+    collector that may only make moves that leave its energy the way home is never disabled by its energy; the
+    same games without the mask are (a barely trained network on a small budget)."""
+    from jaxdc.dcg.analysis.collector_eval import evaluate
+
+    learned = learned_lib.load(run_dir)
+    free = evaluate(learned, episodes=256, seed=1, energy=3)
+    masked = evaluate(learned, episodes=256, seed=1, energy=3, mask="reach_base")
+    assert free["outcomes"]["energy"] > 0 and "mask" not in free
+    assert masked["outcomes"]["energy"] == 0 and masked["mask"] == "reach_base"
+    with pytest.raises(ValueError, match="mask must be one of"):
+        evaluate(learned, episodes=8, seed=1, mask="reach_home")
+
+
+def test_eval_energies_under_a_mask_records_it_and_names_its_files(run_dir, tmp_path, capsys):
+    out = str(tmp_path / "res")
+    argv = ["energies", "--checkpoint", run_dir, "--energies", "3", "--episodes", "32", "--bound-episodes", "4",
+            "--no-specialists", "--mask", "reach_base", "--json", "--out", out]
+    assert eval_dcg.main(argv) == 0
+    table = json.loads(capsys.readouterr().out)
+    assert table["mask"] == "reach_base"
+    assert sorted(os.listdir(out)) == ["energies_tiny_mask-reach_base_s0.json", "energies_tiny_mask-reach_base_s0.md"]
+    assert "under the action mask `reach_base`" in open(os.path.join(out, "energies_tiny_mask-reach_base_s0.md")).read()
+    refused(eval_dcg.main, argv[:-3] + ["--mask", "reach_home"], capsys, "--mask", "reach_home")

@@ -42,19 +42,22 @@ class ExactBounds:
 
 
 def evaluate(learned, *, episodes, seed, energy=None, strategies=None, reward_area=None, max_steps=None,
-             greedy=False, rpe_zero="exclude", bound=True, bounds: ExactBounds | None = None) -> dict:
+             greedy=False, rpe_zero="exclude", bound=True, bounds: ExactBounds | None = None,
+             mask: str = "none") -> dict:
     """The section-5.5 statistics of ``learned`` in its game with the given changes, as one JSON-able dict.
 
     ``None`` keeps a setting as trained. Unlimited energy is recorded as ``"inf"``
     (:func:`jaxdc.io.unlimited_to_json`); an undefined statistic is ``None`` with its reason. With
     ``reward_area`` and ``bound``, the exact bound of that game (from ``bounds`` when given, solved before any
-    game is played) and each reward's fraction of it are added.
+    game is played) and each reward's fraction of it are added. ``mask`` (beyond the thesis,
+    :data:`jaxdc.core.masks.MASKS`) plays the collector under an action mask, recorded when not ``"none"``.
     """
     env, params = learned.game(energy=energy, strategies=strategies, reward_area=reward_area, max_steps=max_steps)
     # the bound first: a game it cannot solve (too big for the memory) is refused before any game is played
     b = (bounds or ExactBounds())(env, params) if reward_area is not None and bound else None
     t0 = time.perf_counter()
-    final = evaluate_network(env, params, learned.net, learned.params, jax.random.PRNGKey(seed), episodes, greedy)
+    final = evaluate_network(env, params, learned.net, learned.params, jax.random.PRNGKey(seed), episodes, greedy,
+                             mask=mask)
     jax.block_until_ready(final)
     out = summarize(final, env.strategies, rpe_zero)
     out["seconds"] = round(time.perf_counter() - t0, 3)
@@ -68,6 +71,8 @@ def evaluate(learned, *, episodes, seed, energy=None, strategies=None, reward_ar
     if params.energy_range is not None:  # a range network in its training range (beyond the thesis)
         out["setting"]["energy_range"] = [float(x) for x in params.energy_range]
     out["seed"], out["greedy"] = seed, bool(greedy)
+    if mask != "none":
+        out["mask"] = mask
     if b is not None:
         out["bound"] = {"total": b["total"], "per_strategy": b["per_strategy"]}
         out["fraction_of_bound"] = fraction(out["reward"]["mean"], b["total"])

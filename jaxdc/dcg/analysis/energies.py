@@ -17,7 +17,8 @@ from typing import Any
 import jax
 
 from jaxdc.core.energy import MAX_FINITE_ENERGY
-from jaxdc.core.validate import check_float, value_text
+from jaxdc.core.masks import MASKS
+from jaxdc.core.validate import check_choice, check_float, value_text
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis.collector_eval import evaluate, fraction
 from jaxdc.dcg.env import DCG
@@ -49,21 +50,24 @@ def specialist_name(net: str, energy: float) -> str:
 
 def energy_table(learned: learned_lib.Learned, energies: Sequence[Any], *, episodes: int, seed: int,
                  bound_episodes: int, greedy: bool = False, specialists: bool = True,
-                 progress: Callable[[str], None] | None = None) -> dict:
+                 progress: Callable[[str], None] | None = None, mask: str = "none") -> dict:
     """``{"rows": [...], ...}``: at each energy the network's reward, the full-information bound, their ratio and
     the shipped per-energy collector's reward and ratio (``None`` where none is shipped or ``specialists`` is off).
 
     The bound is estimated over ``bound_episodes`` games of ``PRNGKey(seed)`` in the standard game of the network's
-    grid size, item count and strategies (the setting of ``eval.dcg optimum``).
+    grid size, item count and strategies (the setting of ``eval.dcg optimum``). ``mask`` (beyond the thesis,
+    :data:`jaxdc.core.masks.MASKS`) plays the network and the specialists under that action mask; recorded when
+    not ``"none"``.
     """
     energies = check_energies(energies)
+    check_choice("mask", mask, MASKS)
     shipped = set(learned_lib.shipped_names()) if specialists else set()
     s = learned.setting()
     rows = []
     for e in energies:
         say = progress or (lambda m: None)
         say(f"energy {e:g}: the network")
-        net = evaluate(learned, episodes=episodes, seed=seed, energy=e, greedy=greedy, bound=False)
+        net = evaluate(learned, episodes=episodes, seed=seed, energy=e, greedy=greedy, bound=False, mask=mask)
         say(f"energy {e:g}: the full-information bound over {bound_episodes} games")
         env = DCG(grid_size=s["grid_size"], total_reward=s["total_reward"], strategies=tuple(s["strategies"]),
                   history=1, obs_history=False)
@@ -74,7 +78,7 @@ def energy_table(learned: learned_lib.Learned, energies: Sequence[Any], *, episo
         if name in shipped:
             say(f"energy {e:g}: the shipped {name}")
             spec = evaluate(learned_lib.shipped(name), episodes=episodes, seed=seed, energy=e, greedy=greedy,
-                            bound=False)
+                            bound=False, mask=mask)
         reward = net["reward"]["mean"]
         rows.append({
             "energy": e, "in_range": _in_range(learned, e),
@@ -86,7 +90,8 @@ def energy_table(learned: learned_lib.Learned, energies: Sequence[Any], *, episo
         })
     return {"net": learned.net_name, "source": learned.source, "energy_range": learned.metadata.get("energy_range"),
             "observation": learned.metadata.get("observation", "thesis"), "episodes": episodes, "seed": seed,
-            "bound_episodes": bound_episodes, "greedy": bool(greedy), "rows": rows}
+            "bound_episodes": bound_episodes, "greedy": bool(greedy), **({} if mask == "none" else {"mask": mask}),
+            "rows": rows}
 
 
 def _se(result: dict) -> float | None:
@@ -107,7 +112,9 @@ def energy_markdown(table: dict) -> str:
     lines = [f"Network `{table['net']}` ({table['source']}; trained energies "
              + ("-".join(f"{x:g}" for x in table["energy_range"]) if table["energy_range"] else "fixed")
              + f", {table['observation']} observation), {table['episodes']} games per row, seed {table['seed']}; "
-             f"bound over {table['bound_episodes']} games.", "",
+             f"bound over {table['bound_episodes']} games"
+             + (", greedy" if table.get("greedy") else "")
+             + (f", under the action mask `{table['mask']}`" if table.get("mask") else "") + ".", "",
              "| energy | in range | network | bound | ratio | per-energy collector | its ratio |",
              "|---:|---|---:|---:|---:|---|---:|"]
     for r in table["rows"]:

@@ -49,7 +49,8 @@ def _strategy_set(strategies) -> str:
 
 
 def result_name(r: dict) -> str:
-    """The file name of an evaluation: ``eval_<net>[_a<alpha>]_e<energy>_<set>[_area<S>][_greedy]_s<seed>.json``."""
+    """The file name of an evaluation:
+    ``eval_<net>[_a<alpha>]_e<energy>_<set>[_area<S>][_greedy][_mask-<mask>]_s<seed>.json``."""
     s = r["setting"]
     sets = _strategy_set(s["strategies"])
     parts = [f"eval_{r['net']}"]
@@ -60,6 +61,8 @@ def result_name(r: dict) -> str:
         parts.append(f"area{s['reward_area']}")
     if r["greedy"]:
         parts.append("greedy")
+    if r.get("mask"):
+        parts.append(f"mask-{r['mask']}")
     parts.append(f"s{r['seed']}")
     return "_".join(parts) + ".json"
 
