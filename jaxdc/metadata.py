@@ -44,7 +44,7 @@ RUN_KEYS = {
             "init_fraction", "init_from", "init_sha256"),
     "dcg": ("format", "net", "problem", "grid_size", "total_reward", "strategies", "energy", "max_steps", "history",
             "alpha", "reward_area", "min_reward_area", "seed", "seeds", "algorithm", "observation", "energy_range",
-            "energy_tilt", "collectors", "algo", "init_from", "init_sha256"),
+            "energy_tilt", "collectors", "algo", "mask", "init_from", "init_sha256"),
 }
 #: Entries of :data:`RUN_KEYS` that record a fact of the run, not a setting (no flag sets them): the SHA-256 of the
 #: parameters a warm start began from (``train.dcp --init-from``, ``train.dcg --init-from``).

@@ -171,6 +171,7 @@ class Batch(NamedTuple):
     advantages: jax.Array | None  # R - V_old(s), fixed before the update
     weight: jax.Array | None = None  # teams: 1 where the agent was active at the step, else 0; None: all count
     world: jax.Array | None = None  # with a centralised critic: each row's world state; else None
+    allowed: jax.Array | None = None  # with an action mask: bool [A] per row, the allowed actions; else None
 
 
 # -- the pieces of the loss ---------------------------------------------------------------
@@ -203,7 +204,8 @@ def aux_cross_entropy(aux_logits: jax.Array, targets: jax.Array,
 def a2c_loss(params: Any, apply_fn: Callable, obs: jax.Array, heuristics: jax.Array, actions: jax.Array,
              returns: jax.Array, config: A2CConfig, aux_targets: jax.Array | None = None,
              old_log_probs: jax.Array | None = None, advantages: jax.Array | None = None,
-             weights: jax.Array | None = None) -> tuple[jax.Array, dict[str, jax.Array]]:
+             weights: jax.Array | None = None,
+             allowed: jax.Array | None = None) -> tuple[jax.Array, dict[str, jax.Array]]:
     """Mean over the batch of ``-log pi(a|s) A + value_coef * Huber(R - V) - entropy_coef * H(pi)``.
 
     ``A = R - V(s)`` is held constant (``stop_gradient``) in the policy term.
@@ -216,11 +218,13 @@ def a2c_loss(params: Any, apply_fn: Callable, obs: jax.Array, heuristics: jax.Ar
     ones, computed before the update); with ``config.clip_eps`` the policy
     term is PPO's ``-min(rho A, clip(rho, 1 - eps, 1 + eps) A)``,
     ``rho = pi(a|s) / pi_old(a|s)`` from ``old_log_probs``. ``weights`` (teams: 1 for an active agent's step,
-    0 for a disabled one's) turn every mean into the weighted mean.
+    0 for a disabled one's) turn every mean into the weighted mean. ``allowed`` (bool ``[B, A]``, an action mask)
+    makes ``pi`` the masked policy the rollout sampled from (:func:`~jaxdc.agents.common.masked_logits`): its
+    log-probabilities and entropy are those over the allowed actions.
     """
     mean = jnp.mean if weights is None else (lambda x: jnp.sum(x * weights) / jnp.maximum(jnp.sum(weights), 1.0))
     logits, values, *aux = apply_fn(params, obs, heuristics)
-    logp = jax.nn.log_softmax(logits)
+    logp = jax.nn.log_softmax(masked_logits(logits, allowed))
     logp_a = jnp.take_along_axis(logp, actions[:, None], axis=-1)[:, 0]
     advantage = returns - values
     adv = jax.lax.stop_gradient(advantage) if advantages is None else advantages
@@ -289,7 +293,8 @@ def _no_heuristics(num_actions: int, agents: int) -> Callable:
 
 
 def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Network, heuristics: Callable | None = None,
-               aux_target: Callable | None = None, init_params: Any = None, critic: Any = None) -> Trainer:
+               aux_target: Callable | None = None, init_params: Any = None, critic: Any = None,
+               mask: Callable | None = None) -> Trainer:
     """Build the A2C trainer of ``net`` on ``env`` with ``env_params`` (validated outside jit).
 
     ``heuristics`` (``env_states [B] -> [B, H, A]``) feeds a network that uses them (ENN).
@@ -310,6 +315,10 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
     :class:`jaxdc.nets.critic.WorldCritic`) whose value on the world state replaces the network's own in the
     returns, the truncation bootstrap and the value loss (:mod:`jaxdc.agents.centralised`); its parameters join the
     trained tree (``init_params`` is then the actor's alone). ``None`` (default): IPPO, each row's own value.
+
+    ``mask`` (beyond the thesis; one agent only): ``state -> bool [A]`` for one environment state (e.g.
+    :func:`jaxdc.core.masks.make_mask`): the rollout samples among the allowed actions, the batch keeps them, and
+    the loss is that of the masked policy (:func:`a2c_loss`'s ``allowed``). ``None`` (default): every action.
     """
     if not isinstance(config, A2CConfig):
         raise TypeError(f"config must be an A2CConfig, got {type(config).__name__}")
@@ -327,6 +336,9 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
     rows = (lambda x: x) if agents is None else (lambda x: x.reshape((-1,) + x.shape[2:]))
     per_agent = (lambda x: x) if agents is None else (lambda x: jnp.repeat(x, k, axis=0))
     by_env = (lambda x: x) if agents is None else (lambda x: x.reshape((-1, k)))
+    if mask is not None and agents is not None:
+        raise ValueError(f"mask: an action mask plays one agent's state, not a team of {agents} "
+                         f"({type(env).__name__})")
     if net.has_aux and aux_target is None:
         raise ValueError(f"{type(net).__name__} has an auxiliary head: pass aux_target=info -> labels [B] "
                          "(for the DCG: lambda info: info['opponent_action'])")
@@ -357,7 +369,8 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
         env_state, obs, key = carry
         key, k_act, k_env = jax.random.split(key, 3)
         h = heuristics(env_state)
-        logits = net.apply(params, rows(obs), h)[0]
+        allowed = None if mask is None else jax.vmap(mask)(env_state)
+        logits = masked_logits(net.apply(params, rows(obs), h)[0], allowed)
         action = jax.random.categorical(k_act, logits).astype(jnp.int32)
         obs2, env_state2, reward, term, trunc, info = step_batch(
             env, k_env, env_state, by_env(action), env_params, config.reset_slots)
@@ -372,7 +385,7 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
         weight = None if agents is None else rows(env_state.active).astype(jnp.float32)
         t = Transition(rows(obs), h, action, reward, term, trunc, final_value,
                        jnp.where(done, per_agent(info["episode_reward"]), 0.0), target, weight,
-                       None if central is None else central.world(env_state))
+                       None if central is None else central.world(env_state), allowed)
         return (env_state2, obs2, key), t
 
     def adam_step(carry, batch: Batch):
@@ -389,7 +402,7 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
         apply_fn = net.apply if central is None or batch.world is None else central.apply_with(net.apply, batch.world)
         grads, metrics = jax.grad(a2c_loss, has_aux=True)(
             params, apply_fn, batch.obs, batch.heuristics, batch.action, batch.returns, config,
-            batch.aux_target, batch.old_log_prob, adv, batch.weight)
+            batch.aux_target, batch.old_log_prob, adv, batch.weight, batch.allowed)
         updates, opt_state = tx.update(grads, opt_state, params)
         return (optax.apply_updates(params, updates), opt_state), metrics
 
@@ -419,7 +432,8 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
         if needs_old_policy:  # options: pi_old and V(s_t) of the rollout, before this update
             logits, values = net.apply(ts.params, flat(traj.obs), flat(traj.heuristics))[:2]
             values = values if central is None else central.row_values(ts.params, flat(traj.world))
-            old_log_prob = jnp.take_along_axis(jax.nn.log_softmax(logits), flat(traj.action)[:, None], -1)[:, 0]
+            old_logp = jax.nn.log_softmax(masked_logits(logits, None if traj.allowed is None else flat(traj.allowed)))
+            old_log_prob = jnp.take_along_axis(old_logp, flat(traj.action)[:, None], -1)[:, 0]
             values = values.reshape(traj.reward.shape)
         returns = nstep_returns(traj.reward, traj.terminated, traj.truncated, traj.final_value,
                                 values_of(ts.params, obs, None if central is None else central.world(env_state)),
@@ -430,7 +444,8 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
         batch = Batch(flat(traj.obs), flat(traj.heuristics), flat(traj.action), flat(returns),
                       flat(traj.aux_target), old_log_prob, advantages,
                       None if traj.weight is None else flat(traj.weight),
-                      None if central is None else jnp.repeat(flat(traj.world), k, axis=0))
+                      None if central is None else jnp.repeat(flat(traj.world), k, axis=0),
+                      None if traj.allowed is None else flat(traj.allowed))
         params, opt_state, key, metrics = learn(ts.params, ts.opt_state, key, batch)
         done = traj.terminated | traj.truncated
         # a team's episode is on each of its k rows: counted once

@@ -137,12 +137,13 @@ class Transition(NamedTuple):
     aux_target: jax.Array  # int32 label of the auxiliary head (e.g. the opponent's action o_t), else 0
     weight: jax.Array | None = None  # teams (a2c): 1 where the agent was active, else 0; None: one agent
     world: jax.Array | None = None  # a centralised critic's (a2c): the environments' world states [B, ...]; else None
+    allowed: jax.Array | None = None  # with an action mask (a2c): bool [B, A], the allowed actions; else None
 
 
 class Trainer(NamedTuple):
     """What ``make_train`` of :mod:`jaxdc.agents.a2c` and :mod:`jaxdc.agents.nstep_q` returns."""
 
-    init: Callable  # key -> training state
+    init: Callable  # key -> training state; jitted
     update: Callable  # state -> (state, metrics); jitted
     run: Callable  # (state, n) -> (state, metrics [n]); jitted, n static
     train: Callable  # key -> (state, metrics [num_updates])
@@ -151,7 +152,8 @@ class Trainer(NamedTuple):
     @classmethod
     def of(cls, init: Callable, update: Callable, config: RunConfig) -> Trainer:
         """The trainer of ``init`` and one ``update``: ``run(state, n)`` scans ``n`` updates, ``train(key)`` runs
-        ``config.num_updates`` of them from ``init(key)``; all but ``init`` jitted."""
+        ``config.num_updates`` of them from ``init(key)``; all four jitted (``init`` is the first batch of
+        environments and the network's initialisation: op by op it costs seconds of dispatch per trainer)."""
 
         def run(ts, n: int):
             return jax.lax.scan(lambda s, _: update(s), ts, None, n)
@@ -159,7 +161,7 @@ class Trainer(NamedTuple):
         def train(key):
             return run(init(key), config.num_updates)
 
-        return cls(init, jax.jit(update), jax.jit(run, static_argnums=1), jax.jit(train), config)
+        return cls(jax.jit(init), jax.jit(update), jax.jit(run, static_argnums=1), jax.jit(train), config)
 
 
 def nstep_returns(rewards: jax.Array, terminated: jax.Array, truncated: jax.Array, final_values: jax.Array,

@@ -149,10 +149,10 @@ def _add_game(p):
 
 
 def _add_mask(p):
-    p.add_argument("--mask", choices=MASKS, default="none",
+    p.add_argument("--mask", choices=MASKS, default=None,
                    help="play one collector under an action mask (beyond the thesis): reach_base, a move must leave "
-                        "the energy to get home; reach_base_or_item, or to reach an item, or it takes one "
-                        "(default none, the thesis' policy)")
+                        "the energy to get home; reach_base_or_item, or to reach an item, or it takes one; none, "
+                        "the thesis' policy (default: the mask the network was trained under, none for the thesis')")
 
 
 def _figure_order(fig: str):
@@ -320,7 +320,7 @@ def _evaluate(args, command) -> int:
         if not s.json:
             print(f"Evaluating {learned.describe()}: {s.episodes} games, seed {s.seed} ...", file=sys.stderr)
         if team:
-            if s.mask != "none":
+            if s.mask not in (None, "none"):
                 raise ValueError(f"--mask {s.mask} plays one collector; a team (--collectors, or a network trained "
                                  "as a team) plays without one")
             r = evaluate_learned_team(learned, s.collectors, episodes=s.episodes, seed=s.seed, greedy=s.greedy,

@@ -59,7 +59,8 @@ def main(args: argparse.Namespace, command: str) -> int:
         check_output_folder(args.out, "--out")
         learned = learned_lib.load(args.checkpoint) if args.checkpoint else learned_lib.shipped(args.net)
         given = args.checkpoint or args.net
-        play = ("_greedy" if args.greedy else "") + ("" if args.mask == "none" else f"_mask-{args.mask}")
+        mask = learned.mask if args.mask is None else args.mask
+        play = ("_greedy" if args.greedy else "") + ("" if mask == "none" else f"_mask-{mask}")
         stem = os.path.join(args.out, f"energies_{network_label(given)}{play}_s{args.seed}")
         check_output_folder(args.out, "--out", files=[os.path.basename(stem) + ext for ext in (".json", ".md")],
                             inputs={"--checkpoint": pretrained.read_paths(args.checkpoint, "dcg")

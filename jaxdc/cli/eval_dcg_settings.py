@@ -42,7 +42,7 @@ class EvaluateSettings:
     json: bool
     out: str
     collectors: int | None = None  # the team game (beyond the thesis); None: the network's own
-    mask: str = "none"  # an action mask (beyond the thesis; jaxdc.core.masks.MASKS)
+    mask: str | None = None  # an action mask (beyond the thesis; jaxdc.core.masks.MASKS); None: as trained
 
     @classmethod
     def from_args(cls, args) -> "EvaluateSettings":

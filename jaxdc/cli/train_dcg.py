@@ -74,6 +74,7 @@ from jaxdc.cli.train_common import (
     training_energy,
 )
 from jaxdc.core.energy import ENERGY_SCALE, MAX_ENERGY_TILT
+from jaxdc.core.masks import MASKS
 from jaxdc.dcg.env import OBSERVATIONS
 from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.dcg.team.state import MAX_COLLECTORS
@@ -129,6 +130,10 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--energy-tilt", type=real("--energy-tilt", -MAX_ENERGY_TILT, MAX_ENERGY_TILT), default=0.0,
                    metavar="A", help="with --energy-range: draw the maximum energy with density proportional to "
                                      "E**-A (0: uniform, the default; 1: log-uniform; A > 0 weights the low budgets)")
+    g.add_argument("--mask", choices=MASKS, default="none",
+                   help="train (and evaluate) the collector under an action mask: reach_base, a move must leave the "
+                        "energy to get home; reach_base_or_item, or to reach an item, or it takes one (default "
+                        "none, the thesis' policy; one collector only)")
     g = p.add_argument_group("the team game (beyond the thesis; docs/dcg.md)")
     g.add_argument("--collectors", type=integer("--collectors", low=1, high=MAX_COLLECTORS), default=1,
                    help=f"k collectors (1..{MAX_COLLECTORS}) sharing one network and the team reward "
@@ -158,7 +163,7 @@ def settle(args):
                            min_reward_area=args.min_reward_area, eval_episodes=args.eval_episodes,
                            greedy_eval=args.greedy_eval, observation=args.observation,
                            energy_range=None if args.energy_range is None else tuple(args.energy_range),
-                           energy_tilt=args.energy_tilt,
+                           energy_tilt=args.energy_tilt, mask=args.mask,
                            collectors=args.collectors, init_from=args.init_from, algo=args.algo)
     energy = f"{args.energy:g}" if args.energy_range is None else "{:g}-{:g}".format(*args.energy_range)
     team = ("" if args.collectors == 1 else f"-k{args.collectors}") + ("" if args.algo == "ippo" else f"-{args.algo}")

@@ -78,6 +78,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
     """The checks of a DCG network's stored setting: those of ``train.dcg``'s and ``eval.dcg``'s flags (the
     constructor's choices and ranges), strict about JSON types."""
     from jaxdc.core.energy import ENERGY_METRICS, MAX_ENERGY_TILT, MAX_FINITE_ENERGY
+    from jaxdc.core.masks import MASKS
     from jaxdc.core.sampling import MAX_TOTAL_REWARD
     from jaxdc.core.validate import SEED_MAX
     from jaxdc.dcg import env as dcg_env
@@ -97,7 +98,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "steps": json_int(1, None), "updates": json_int(1, None), "energy_range": optional(_energy_range),
         "energy_tilt": json_number(-MAX_ENERGY_TILT, MAX_ENERGY_TILT),
         "collectors": json_int(1, MAX_COLLECTORS), "init_from": optional(json_string),
-        "init_sha256": optional(json_string), "algo": json_choice(tuple(ALGOS)),
+        "init_sha256": optional(json_string), "algo": json_choice(tuple(ALGOS)), "mask": json_choice(MASKS),
         **options, "env": json_object(options),
     }
 
@@ -213,18 +214,24 @@ class Learned(pretrained.Learned):
                                  chase_tie=s["chase_tie"], energy_range=energy_range)
         return env, params
 
-    def policy(self, greedy: bool = False, mask: str = "none") -> Callable:
+    @property
+    def mask(self) -> str:
+        """The action mask the network was trained under (``train.dcg --mask``; ``"none"``, the thesis' policy)."""
+        return str(self.metadata.get("mask", "none"))
+
+    def policy(self, greedy: bool = False, mask: str | None = None) -> Callable:
         """``policy(key, obs, state) -> action``: samples from ``pi`` (section 5.5.1: "The collector's policy is
         stochastic"), or takes its argmax if ``greedy`` (the deterministic policy of Figs. 5.13-5.15).
 
         ``mask``: one of :data:`jaxdc.core.masks.MASKS` (beyond the thesis; ``"none"``, the thesis' policy): the
         collector plays among the actions that leave its energy the way home (``"reach_base"``) or to an item
-        (``"reach_base_or_item"``); one collector's state only."""
+        (``"reach_base_or_item"``); one collector's state only. ``None``: the mask it was trained under
+        (:attr:`mask`)."""
         from jaxdc.agents import a2c
         from jaxdc.core.masks import make_mask
 
         return a2c.make_policy(self.net, self.params, None, greedy=greedy,
-                               mask=make_mask(mask, int(self.setting()["grid_size"])))
+                               mask=make_mask(self.mask if mask is None else mask, int(self.setting()["grid_size"])))
 
     def describe(self) -> str:
         """One line: network, training setting and source."""
@@ -239,6 +246,7 @@ class Learned(pretrained.Learned):
                 + f"strategies {','.join(s['strategies'])}, history {s['history']}, "
                 + (f"a team of {self.collectors} collectors, " if self.collectors > 1 else "")
                 + (f"{algo}, " if (algo := self.metadata.get("algo", "ippo")) != "ippo" else "")
+                + (f"under the mask {self.mask}, " if self.mask != "none" else "")
                 + f"{self.steps or '?'} steps, seed {self.metadata.get('seed', '?')} ({self.source})")
 
 

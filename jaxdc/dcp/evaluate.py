@@ -95,7 +95,7 @@ def evaluate_learned(
     from ``pi`` (section 4.5) unless ``greedy``; EQN is epsilon-greedy with
     ``epsilon`` (default 0.05, section 4.5.5). The network sees the ten ENN
     heuristics of section 4.4.3 computed on ``params``' risk map. ``mask`` names an action mask of
-    :data:`jaxdc.dcp.masks.MASKS` (``"none"``: the thesis' policy). Raises a
+    :data:`jaxdc.core.masks.MASKS` (``"none"``: the thesis' policy). Raises a
     ``ValueError`` if the network's parameters do not fit ``env``'s grid.
     """
     from jaxdc.dcp.learned import EQN_EPSILON, check_params

@@ -29,7 +29,7 @@ def reach_base_or_item(env: DCP) -> Mask:
 
 
 def make_mask(name: str, env: DCP) -> Mask | None:
-    """The mask called ``name`` (one of :data:`MASKS`) for ``env``; ``None`` for ``"none"``."""
+    """The mask called ``name`` (one of :data:`jaxdc.core.masks.MASKS`) for ``env``; ``None`` for ``"none"``."""
     return _make_mask(name, env.grid_size)
 
 

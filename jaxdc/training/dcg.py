@@ -35,6 +35,7 @@ from jaxdc.agents import a2c
 from jaxdc.agents.centralised import actor_params
 from jaxdc.core.energy import check_energy_range, check_energy_tilt
 from jaxdc.core.env import step_batch
+from jaxdc.core.masks import MASKS, make_mask
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import episode_summary
 from jaxdc.core.tree_check import digest
@@ -91,6 +92,9 @@ class DCGSettings:
       algo: the team learner, one of :data:`~jaxdc.nets.registry.ALGOS`: ``"ippo"`` (default; each collector's
         value on its own observation) or ``"mappo"`` (a centralised critic on the world state; ``collectors >= 2``
         only). Beyond the thesis (issue 29).
+      mask: an action mask of :data:`jaxdc.core.masks.MASKS` the collector trains (and is evaluated) under:
+        ``"none"`` (default, the thesis' policy), ``"reach_base"`` or ``"reach_base_or_item"`` (beyond the thesis;
+        one collector only).
     """
 
     net: str
@@ -112,6 +116,7 @@ class DCGSettings:
     collectors: int = 1
     init_from: str | None = None
     algo: str = "ippo"
+    mask: str = "none"
 
     def __post_init__(self) -> None:
         check_choice("observation", self.observation, OBSERVATIONS)
@@ -122,6 +127,10 @@ class DCGSettings:
                                f"state) needs {{1}} >= 2, got {self.collectors}; with one collector {{0}} must be "
                                f"'ippo' (the allowed values: {SettingError.text(tuple(ALGOS))})", "algo", "collectors")
         check_init_from(self.init_from)
+        check_choice("mask", self.mask, MASKS)
+        if self.mask != "none" and self.collectors > 1:
+            raise SettingError(f"{{0}} {SettingError.text(repr(self.mask))} plays one collector's state; with "
+                               f"{{1}} = {self.collectors} it must be 'none'", "mask", "collectors")
         if self.energy_range is not None:
             check_energy_range(self.energy_range, MIN_RANGE_ENERGY)
         if check_energy_tilt(self.energy_tilt) != 0.0 and self.energy_range is None:
@@ -223,6 +232,7 @@ def run_metadata(s: DCGSettings, env: DCG | DCGTeam, seeds: Iterable[int],
         **({} if s.energy_tilt == 0.0 else {"energy_tilt": s.energy_tilt}),
         **({} if s.collectors == 1 else {"collectors": s.collectors}),
         **({} if s.algo == "ippo" else {"algo": s.algo}),
+        **({} if s.mask == "none" else {"mask": s.mask}),
         **init_metadata(s.init_from, init_sha256),
     }
 
@@ -234,7 +244,8 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCGSettings, tuple
     ``where`` (:func:`jaxdc.metadata.check_run`)."""
     meta = check_run(meta, "dcg", where)
     setting = {k: meta[k] for k in ("alpha", "energy", "grid_size", "total_reward", "max_steps", "reward_area",
-                                    "min_reward_area", "observation", "energy_tilt", "collectors", "init_from", "algo")
+                                    "min_reward_area", "observation", "energy_tilt", "collectors", "init_from", "algo",
+                                    "mask")
                if meta.get(k) is not None}
     if meta.get("energy_range") is not None:
         setting["energy_range"] = recorded_pair(meta["energy_range"], "energy_range", where, " [low, high]")
@@ -267,12 +278,13 @@ class DCGRun(TrainingRun):
         k = s.collectors
         trainer, mesh = spread(a2c.make_train(s.config, self.env, self.env_params, self.net,
                                               aux_target=opponent_labels(k) if aux else None,
-                                              init_params=init_params, critic=build_critic(s.algo)),
+                                              init_params=init_params, critic=build_critic(s.algo),
+                                              mask=make_mask(s.mask, s.grid_size)),
                                control, s.config.num_envs)
 
         def evaluate(params, key):
             k_ep, k_acc = jax.random.split(key)
-            policy = a2c.make_policy(self.net, params, greedy=s.greedy_eval)
+            policy = a2c.make_policy(self.net, params, greedy=s.greedy_eval, mask=make_mask(s.mask, s.grid_size))
             if k > 1:  # the one network from each collector's seat
                 policy = copies(policy, k)
             finals = run_episodes(self.env, self.env_params, policy, k_ep, s.eval_episodes)

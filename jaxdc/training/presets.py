@@ -58,6 +58,7 @@ class Preset:
     min_reward_area: int | None = None
     collectors: int | None = None
     algo: str | None = None
+    mask: str | None = None
     init_from: str | None = None
 
     def fields(self) -> dict[str, Any]:
@@ -151,6 +152,13 @@ DCG_GENERAL["omn_conn_general_tilt"] = Preset(
     "dcg", "5.8, 5.9 (beyond the thesis: omn_conn_general_long trained 5M more steps, the low budgets weighted)",
     "omn_conn", observation="general", energy_range=(8.0, 25.0), energy_tilt=2.0, total_steps=5_000_000,
     **{**DCG_STRONG_RECIPE, "lr": 2e-4, "eval_every": 1_000_000}, init_from="omn_conn_general_long")
+#: ``omn_conn_general_tilt`` trained on under the action mask ``reach_base_or_item`` (docs/generalisation.md,
+#: "Training under the mask"; beyond the thesis): 4M more steps of the tilted draw at lr 2e-4, seed 5 (24M in all).
+DCG_GENERAL["omn_conn_general_masked"] = Preset(
+    "dcg", "5.8, 5.9 (beyond the thesis: omn_conn_general_tilt trained 4M more steps under the mask "
+    "reach_base_or_item)", "omn_conn", observation="general", energy_range=(8.0, 25.0), energy_tilt=2.0,
+    total_steps=4_000_000, **{**DCG_STRONG_RECIPE, "lr": 2e-4, "eval_every": 1_000_000}, mask="reach_base_or_item",
+    init_from="omn_conn_general_tilt")
 #: The two-collector team (issue 29; the team game the thesis' conclusion to chapter 5 proposes, beyond the thesis):
 #: OMN+CoNN shared by two collectors on the team reward, started from ``omn_conn_strong`` (the team starts as two
 #: copies of it: :func:`jaxdc.training.dcg.start_params`) and trained with the strong recipe at lr 3e-4 for 5M steps.

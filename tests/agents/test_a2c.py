@@ -12,6 +12,7 @@ import optax
 import pytest
 
 from jaxdc import checkpoint
+from jaxdc.agents import a2c
 from jaxdc.agents.a2c import A2CConfig, huber, lr_schedule, make_policy, make_train, nstep_returns
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
@@ -248,3 +249,39 @@ def test_aux_head_cross_entropy_and_wiring():
     trainer = make_train(cfg, ENV, PARAMS, net, aux_target=lambda info: jnp.zeros_like(info["outcome"]))
     _, metrics = trainer.update(trainer.init(jax.random.PRNGKey(1)))
     assert "aux_accuracy" in metrics and np.isfinite(float(metrics["aux_loss"]))
+
+
+def test_the_masked_loss_is_that_of_the_policy_over_the_allowed_actions():
+    """``allowed`` (an action mask, beyond the thesis): all True changes nothing; otherwise the loss is that of
+    the softmax over the allowed actions, finite, and the forbidden logits get no gradient."""
+    config = a2c.A2CConfig(clip_eps=0.2, gae_lambda=0.95)
+    rng = np.random.default_rng(1)
+    params = {"logits": jnp.asarray(rng.normal(size=(4, 9)), jnp.float32), "v": jnp.asarray([0.1, 0.2, 0.3, 0.4])}
+
+    def apply_fn(p, obs, h):
+        return p["logits"], p["v"]
+
+    actions, returns = jnp.asarray([0, 4, 8, 2]), jnp.asarray([1.0, 0.0, 2.0, -1.0])
+    old, adv = jnp.log(jnp.full(4, 1 / 5)), jnp.asarray([0.5, -0.5, 1.0, 0.2])
+    allowed = jnp.asarray(rng.random((4, 9)) < 0.5).at[jnp.arange(4), actions].set(True)
+
+    def loss(p, mask):
+        return a2c.a2c_loss(p, apply_fn, None, None, actions, returns, config, None, old, adv, None, mask)
+
+    free, _ = loss(params, None)
+    everything, _ = loss(params, jnp.ones((4, 9), bool))
+    assert float(free) == float(everything)
+    masked, metrics = loss(params, allowed)
+    # the same loss from the allowed logits alone: the forbidden ones set to -inf by hand
+    by_hand = {**params, "logits": jnp.where(allowed, params["logits"], -jnp.inf)}
+    logp = jax.nn.log_softmax(by_hand["logits"])
+    logp_a = logp[jnp.arange(4), actions]
+    ratio = jnp.exp(logp_a - old)
+    policy = -jnp.mean(jnp.minimum(ratio * adv, jnp.clip(ratio, 0.8, 1.2) * adv))
+    entropy = -jnp.mean(jnp.sum(jnp.where(allowed, jnp.exp(logp) * logp, 0.0), axis=-1))
+    assert float(metrics["policy_loss"]) == pytest.approx(float(policy), rel=1e-6)
+    assert float(metrics["entropy"]) == pytest.approx(float(entropy), rel=1e-6)
+    assert float(masked) != float(free)
+    grads = jax.grad(lambda p: loss(p, allowed)[0])(params)["logits"]
+    assert np.all(np.isfinite(np.asarray(grads)))
+    np.testing.assert_array_equal(np.asarray(grads)[~np.asarray(allowed)], 0.0)

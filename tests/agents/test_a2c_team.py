@@ -129,6 +129,9 @@ def test_a_team_refuses_heuristics_and_a_network_that_reads_them():
     enn = build("dcp", "enn")
     with pytest.raises(ValueError, match="reads heuristics"):
         a2c.make_train(_config(), env, params, enn)
+    with pytest.raises(ValueError, match="mask: an action mask plays one agent's state, not a team of 2"):
+        a2c.make_train(_config(), env, params, build("dcg", "vnn", history=2, state_channels=3),
+                       mask=lambda s: jnp.ones(9, bool))
 
 
 def test_init_params_start_the_run_and_must_fit_the_network():

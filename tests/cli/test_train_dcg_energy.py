@@ -1,6 +1,6 @@
 """train.dcg over a range of maximum energies (beyond the thesis, docs/generalisation.md): a tiny run with
---energy-range and the general observation, recorded so --config reproduces it, then played at fixed energies
-by the loader and by ``eval.dcg energies``."""
+--energy-range (tilted), the general observation and an action mask, recorded so --config reproduces it, then
+played at fixed energies by the loader and by ``eval.dcg energies``."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from tests.support.cli_checks import refused, tiny_run
 # 3x3 grid, 3 items, the restricted chaser, VNN (no history planes); one update of 16 envs x 8 steps.
 TINY = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies", "restricted", "--max-steps", "20",
         "--energy-range", "3", "8", "--energy-tilt", "1.5", "--observation", "general", "--steps", "128",
-        "--envs", "16", "--t-max", "8",
+        "--envs", "16", "--t-max", "8", "--mask", "reach_base",
         "--eval-every", "128", "--eval-episodes", "16", "--no-progress"]
 
 
@@ -41,14 +41,15 @@ def test_the_run_records_the_range_and_config_reproduces_it(run_dir):
     with open(os.path.join(run_dir, "config.json")) as f:
         meta = json.load(f)
     assert meta["energy_range"] == [3.0, 8.0] and meta["energy_tilt"] == 1.5 and meta["observation"] == "general"
+    assert meta["mask"] == "reach_base"
     settings, _ = _settle(TINY + ["--out", run_dir])
     again, _ = _settle(["--config", os.path.join(run_dir, "config.json"), "--eval-episodes", "16"])
     assert again == settings and again.energy_range == (3.0, 8.0) and again.observation == "general"
-    assert again.energy_tilt == 1.5
+    assert again.energy_tilt == 1.5 and again.mask == "reach_base"
     # the faithful default writes none of the keys
     plain, _ = _settle(["--net", "vnn"])
-    assert not {"energy_range", "energy_tilt"} & set(dcg.run_metadata(plain, dcg.DCG(), [0]))
-    assert plain.observation == "thesis" and plain.energy_tilt == 0.0
+    assert not {"energy_range", "energy_tilt", "mask"} & set(dcg.run_metadata(plain, dcg.DCG(), [0]))
+    assert plain.observation == "thesis" and plain.energy_tilt == 0.0 and plain.mask == "none"
 
 
 def test_the_network_plays_its_range_or_any_fixed_energy(run_dir):
@@ -64,7 +65,7 @@ def test_the_network_plays_its_range_or_any_fixed_energy(run_dir):
 def test_eval_energies_writes_the_table_per_energy(run_dir, tmp_path, capsys):
     out = str(tmp_path / "res")
     argv = ["energies", "--checkpoint", run_dir, "--energies", "3", "8", "9", "--episodes", "32",
-            "--bound-episodes", "4", "--no-specialists", "--json", "--out", out]
+            "--bound-episodes", "4", "--no-specialists", "--mask", "none", "--json", "--out", out]
     assert eval_dcg.main(argv) == 0
     table = json.loads(capsys.readouterr().out)
     assert [r["energy"] for r in table["rows"]] == [3.0, 8.0, 9.0]
@@ -114,6 +115,18 @@ def test_the_tilted_general_collector_records_its_recipe_and_the_file_it_started
     assert shipped["algorithm"] == dataclasses.asdict(settings.config)
 
 
+def test_the_masked_general_collector_records_its_recipe_and_plays_under_its_mask():
+    """omn_conn_general_masked: omn_conn_general_tilt trained on under reach_base_or_item, from the shipped file;
+    loaded, it plays under that mask."""
+    settings, _ = _settle(["--config", "omn_conn_general_masked"])
+    assert settings.init_from == "omn_conn_general_tilt" and settings.mask == "reach_base_or_item"
+    assert settings.energy_tilt == 2.0 and settings.config.total_steps == 4_000_000
+    learned = learned_lib.shipped("omn_conn_general_masked")
+    assert learned.mask == "reach_base_or_item" and "under the mask reach_base_or_item" in learned.describe()
+    assert learned.metadata["init_sha256"] == digest(learned_lib.shipped("omn_conn_general_tilt").params)
+    assert learned.metadata["algorithm"] == dataclasses.asdict(settings.config)
+
+
 @pytest.mark.parametrize("argv, match", [
     (["--energy-range", "8", "3"], "energy_range: low (8) must not exceed high (3)"),
     (["--energy-range", "8.5", "12"], "energy_range low must be a whole number, got 8.5"),
@@ -124,6 +137,8 @@ def test_the_tilted_general_collector_records_its_recipe_and_the_file_it_started
     (["--energy-range", "8", "12", "--energy-tilt", "9"], "--energy-tilt"),
     (["--energy-range", "8", "12", "--energy-tilt", "nan"], "--energy-tilt"),
     (["--energy-tilt", "1"], "--energy-tilt=1 tilts the draw of --energy-range and needs it"),
+    (["--mask", "reach_home"], "--mask"),
+    (["--mask", "reach_base", "--collectors", "2"], "--mask 'reach_base' plays one collector's state"),
 ])
 def test_bad_ranges_and_observations_are_usage_errors(argv, match, capsys, tmp_path):
     refused(cli.main, ["--net", "vnn", "--out", str(tmp_path / "x")] + argv, capsys, match)
@@ -132,12 +147,14 @@ def test_bad_ranges_and_observations_are_usage_errors(argv, match, capsys, tmp_p
 def test_a_collector_under_the_reach_base_mask_never_runs_dry(run_dir):
     """``mask="reach_base"`` (beyond the thesis, jaxdc.core.masks): the DCG shares the DCP's energy rule, so a
     collector that may only make moves that leave its energy the way home is never disabled by its energy; the
-    same games without the mask are (a barely trained network on a small budget)."""
+    same games without the mask are (a barely trained network on a small budget). A network trained under a
+    mask plays under it unless told otherwise."""
     from jaxdc.dcg.analysis.collector_eval import evaluate
 
     learned = learned_lib.load(run_dir)
-    free = evaluate(learned, episodes=256, seed=1, energy=3)
-    masked = evaluate(learned, episodes=256, seed=1, energy=3, mask="reach_base")
+    assert learned.mask == "reach_base"
+    free = evaluate(learned, episodes=256, seed=1, energy=3, mask="none")
+    masked = evaluate(learned, episodes=256, seed=1, energy=3)  # as trained
     assert free["outcomes"]["energy"] > 0 and "mask" not in free
     assert masked["outcomes"]["energy"] == 0 and masked["mask"] == "reach_base"
     with pytest.raises(ValueError, match="mask must be one of"):

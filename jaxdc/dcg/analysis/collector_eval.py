@@ -43,15 +43,17 @@ class ExactBounds:
 
 def evaluate(learned, *, episodes, seed, energy=None, strategies=None, reward_area=None, max_steps=None,
              greedy=False, rpe_zero="exclude", bound=True, bounds: ExactBounds | None = None,
-             mask: str = "none") -> dict:
+             mask: str | None = None) -> dict:
     """The section-5.5 statistics of ``learned`` in its game with the given changes, as one JSON-able dict.
 
     ``None`` keeps a setting as trained. Unlimited energy is recorded as ``"inf"``
     (:func:`jaxdc.io.unlimited_to_json`); an undefined statistic is ``None`` with its reason. With
     ``reward_area`` and ``bound``, the exact bound of that game (from ``bounds`` when given, solved before any
     game is played) and each reward's fraction of it are added. ``mask`` (beyond the thesis,
-    :data:`jaxdc.core.masks.MASKS`) plays the collector under an action mask, recorded when not ``"none"``.
+    :data:`jaxdc.core.masks.MASKS`; ``None``: the one it was trained under) plays the collector under an action
+    mask, recorded when not ``"none"``.
     """
+    mask = learned.mask if mask is None else mask
     env, params = learned.game(energy=energy, strategies=strategies, reward_area=reward_area, max_steps=max_steps)
     # the bound first: a game it cannot solve (too big for the memory) is refused before any game is played
     b = (bounds or ExactBounds())(env, params) if reward_area is not None and bound else None

@@ -50,17 +50,19 @@ def specialist_name(net: str, energy: float) -> str:
 
 def energy_table(learned: learned_lib.Learned, energies: Sequence[Any], *, episodes: int, seed: int,
                  bound_episodes: int, greedy: bool = False, specialists: bool = True,
-                 progress: Callable[[str], None] | None = None, mask: str = "none") -> dict:
+                 progress: Callable[[str], None] | None = None, mask: str | None = None) -> dict:
     """``{"rows": [...], ...}``: at each energy the network's reward, the full-information bound, their ratio and
     the shipped per-energy collector's reward and ratio (``None`` where none is shipped or ``specialists`` is off).
 
     The bound is estimated over ``bound_episodes`` games of ``PRNGKey(seed)`` in the standard game of the network's
     grid size, item count and strategies (the setting of ``eval.dcg optimum``). ``mask`` (beyond the thesis,
-    :data:`jaxdc.core.masks.MASKS`) plays the network and the specialists under that action mask; recorded when
-    not ``"none"``.
+    :data:`jaxdc.core.masks.MASKS`) plays the network and the specialists under that action mask (``None``: each
+    under the one it was trained under); the network's is recorded when not ``"none"``.
     """
     energies = check_energies(energies)
-    check_choice("mask", mask, MASKS)
+    if mask is not None:
+        check_choice("mask", mask, MASKS)
+    played = learned.mask if mask is None else mask
     shipped = set(learned_lib.shipped_names()) if specialists else set()
     s = learned.setting()
     rows = []
@@ -90,7 +92,7 @@ def energy_table(learned: learned_lib.Learned, energies: Sequence[Any], *, episo
         })
     return {"net": learned.net_name, "source": learned.source, "energy_range": learned.metadata.get("energy_range"),
             "observation": learned.metadata.get("observation", "thesis"), "episodes": episodes, "seed": seed,
-            "bound_episodes": bound_episodes, "greedy": bool(greedy), **({} if mask == "none" else {"mask": mask}),
+            "bound_episodes": bound_episodes, "greedy": bool(greedy), **({} if played == "none" else {"mask": played}),
             "rows": rows}
 
 

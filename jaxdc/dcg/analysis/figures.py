@@ -203,7 +203,9 @@ def select(pool: dict, exp: Experiment, group) -> list[Entry]:
     if exp.general:
         for lab, (name, meta) in sorted(_general(pool, exp).items(), key=lambda item: _order(item[1][1])):
             lo, hi = meta["energy_range"]
-            entries.append(Entry(lab, name, energy=energy, note=f"{name}: one network for energies {lo:g}-{hi:g}"))
+            masked = f", under the action mask {meta['mask']}" if meta.get("mask", "none") != "none" else ""
+            entries.append(Entry(lab, name, energy=energy,
+                                 note=f"{name}: one network for energies {lo:g}-{hi:g}{masked}"))
     return entries
 
 

@@ -116,3 +116,8 @@ def test_the_general_network_trained_longest_joins_the_energy_bars_only():
         if name != "energy":
             assert not any(b.label.endswith(GENERAL) for g in exp.groups for b in select(pool, exp, g)), name
     assert not any(b.label.endswith(STRONG) for b in select(pool, EXPERIMENTS["energy"], 10.0))
+    # a network trained under an action mask plays under it (as trained), and its bar says so
+    pool["omn_conn_general_masked"] = dict(general, steps=5_000_000, init_from="omn_conn_general_long",
+                                           mask="reach_base_or_item")
+    bar = {b.label: b for b in select(pool, EXPERIMENTS["energy"], 10.0)}["OMN+CoNN general"]
+    assert bar.name == "omn_conn_general_masked" and bar.note.endswith("under the action mask reach_base_or_item")
