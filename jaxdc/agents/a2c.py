@@ -292,6 +292,22 @@ def _no_heuristics(num_actions: int, agents: int) -> Callable:
     return zeros
 
 
+def _check_mask(mask: Any, env: Environment, env_params: Any, net: Network, agents: int | None) -> None:
+    """Refuse, outside jit, a ``mask`` that is not ``state -> bool [num_actions]`` for one state of ``env`` (traced
+    abstractly on a reset state), or any mask on a team."""
+    if agents is not None:
+        raise ValueError(f"mask: an action mask plays one agent's state, not a team of {agents} "
+                         f"({type(env).__name__})")
+    if not callable(mask):
+        raise TypeError(f"mask must be a function state -> bool [{net.num_actions}] (e.g. "
+                        f"jaxdc.core.masks.make_mask), got {mask!r}")
+    state = jax.eval_shape(lambda k: env.reset(k, env_params)[1], jax.random.PRNGKey(0))
+    out = jax.eval_shape(mask, state)
+    if getattr(out, "shape", None) != (net.num_actions,) or getattr(out, "dtype", None) != jnp.bool_:
+        raise ValueError(f"mask must return bool [{net.num_actions}] for one state (one flag per action), got "
+                         f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}")
+
+
 def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Network, heuristics: Callable | None = None,
                aux_target: Callable | None = None, init_params: Any = None, critic: Any = None,
                mask: Callable | None = None) -> Trainer:
@@ -336,9 +352,8 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
     rows = (lambda x: x) if agents is None else (lambda x: x.reshape((-1,) + x.shape[2:]))
     per_agent = (lambda x: x) if agents is None else (lambda x: jnp.repeat(x, k, axis=0))
     by_env = (lambda x: x) if agents is None else (lambda x: x.reshape((-1, k)))
-    if mask is not None and agents is not None:
-        raise ValueError(f"mask: an action mask plays one agent's state, not a team of {agents} "
-                         f"({type(env).__name__})")
+    if mask is not None:
+        _check_mask(mask, env, env_params, net, agents)
     if net.has_aux and aux_target is None:
         raise ValueError(f"{type(net).__name__} has an auxiliary head: pass aux_target=info -> labels [B] "
                          "(for the DCG: lambda info: info['opponent_action'])")

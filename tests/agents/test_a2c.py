@@ -285,3 +285,17 @@ def test_the_masked_loss_is_that_of_the_policy_over_the_allowed_actions():
     grads = jax.grad(lambda p: loss(p, allowed)[0])(params)["logits"]
     assert np.all(np.isfinite(np.asarray(grads)))
     np.testing.assert_array_equal(np.asarray(grads)[~np.asarray(allowed)], 0.0)
+
+
+def test_a_bad_mask_is_refused_before_anything_is_compiled():
+    from jaxdc.dcg.env import DCG
+    from jaxdc.nets.registry import build
+
+    env = DCG(grid_size=3, total_reward=3, strategies="restricted", history=1, obs_history=False)
+    params, net = env.make_params(), build("dcg", "vnn", history=1, state_channels=env.state_channels)
+    with pytest.raises(TypeError, match="mask must be a function state -> bool"):
+        make_train(A2CConfig(), env, params, net, mask=3)
+    with pytest.raises(ValueError, match=r"mask must return bool \[9\] for one state .* got bool \(4,\)"):
+        make_train(A2CConfig(), env, params, net, mask=lambda s: jnp.ones(4, bool))
+    with pytest.raises(ValueError, match=r"mask must return bool \[9\] .* got float32 \(9,\)"):
+        make_train(A2CConfig(), env, params, net, mask=lambda s: jnp.ones(9))
