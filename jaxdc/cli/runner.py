@@ -12,6 +12,11 @@
 
 Set ``JAXDC_DEBUG=1`` to see the full traceback instead.
 
+While ``main`` runs, a batched evaluation that takes long says how far it is:
+one line on stderr at most every ``JAXDC_PROGRESS_EVERY`` seconds (default
+60; :func:`progress_printer`, fed by :func:`jaxdc.core.rollout.reporting`),
+e.g. for games that never end under a huge ``--max-steps``.
+
 :func:`exit_process` ends a command-line process with a status: after an
 interruption it flushes and leaves with ``os._exit``, because the interpreter's
 normal shutdown can crash while JAX's runtime threads are still busy.
@@ -28,10 +33,14 @@ import shlex
 import signal
 import sys
 import threading
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
+from typing import TextIO
 
 #: Exit statuses: a usage or input error (as argparse), Ctrl-C, SIGTERM.
 EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 130, 143
+#: Seconds between two progress lines of a long evaluation, unless ``JAXDC_PROGRESS_EVERY`` says otherwise.
+PROGRESS_EVERY = 60.0
 
 
 class Terminated(KeyboardInterrupt):
@@ -60,6 +69,38 @@ def with_subcommand(argv: Sequence[str] | None, subcommands: Sequence[str], defa
     return argv if argv and argv[0] in subcommands else [default, *argv]
 
 
+def progress_every() -> float:
+    """``JAXDC_PROGRESS_EVERY`` (seconds, a finite number >= 0) or :data:`PROGRESS_EVERY`; refused by name."""
+    raw = os.environ.get("JAXDC_PROGRESS_EVERY")
+    if raw is None or raw == "":
+        return PROGRESS_EVERY
+    try:
+        every = float(raw)
+    except ValueError:
+        every = float("nan")
+    if not every >= 0.0 or every == float("inf"):
+        raise ValueError(f"JAXDC_PROGRESS_EVERY must be a finite number of seconds >= 0, got {raw!r}")
+    return every
+
+
+def progress_printer(prog: str, every: float, stream: TextIO | None = None,
+                     clock: Callable[[], float] = time.monotonic) -> Callable[[int, int, int], None]:
+    """A reporter for :func:`jaxdc.core.rollout.reporting`: ``report(finished, total, steps)`` writes one line
+    to ``stream`` (default stderr) when ``every`` seconds have passed since the last line (or since this call)."""
+    start = last = clock()
+
+    def report(finished: int, total: int, steps: int) -> None:
+        nonlocal last
+        now = clock()
+        if now - last < every:
+            return
+        last = now
+        print(f"{prog}: evaluating: {finished:,} of {total:,} episodes finished after {steps:,} steps "
+              f"({(now - start) / 60:.1f} min)", file=stream or sys.stderr, flush=True)
+
+    return report
+
+
 def run(main, prog: str, argv=None) -> int:
     """``main(argv)``'s exit status, with the conventions above."""
     debug = bool(os.environ.get("JAXDC_DEBUG"))
@@ -67,7 +108,10 @@ def run(main, prog: str, argv=None) -> int:
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _on_sigterm) if main_thread else None
     try:
-        return int(main(argv) or 0)
+        from jaxdc.core import rollout  # here, so that an interruption while jax loads is handled too
+
+        with rollout.reporting(progress_printer(prog, progress_every())):
+            return int(main(argv) or 0)
     except Terminated:
         print(f"{prog}: terminated", file=sys.stderr)
         return EXIT_TERMINATED

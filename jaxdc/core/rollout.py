@@ -11,10 +11,20 @@ the order in which episodes finish.
 
 The policy is ``policy(key, obs, state) -> action`` for one environment; it
 is vmapped here and may close over network parameters, path tables and so on.
+
+An evaluation whose games never end (a huge step cap) can run for hours inside
+one ``while_loop``. Every :data:`HEARTBEAT_EVERY` loop iterations the loop
+calls the host (``jax.debug.callback``) with its progress; inside
+:func:`reporting` that reaches a reporter, otherwise nothing happens. The
+command lines install a reporter that prints a line now and then
+(:mod:`jaxdc.cli.runner`). The callback reads values and returns nothing, so
+the results are the same with or without a reporter.
 """
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from typing import Any, Callable
 
 import jax
@@ -25,6 +35,29 @@ from jaxdc.core.env import Environment, tree_select
 
 #: Default number of lanes (episodes stepped at once).
 DEFAULT_LANES = 2048
+#: Loop iterations (lane steps) between two progress calls to the host.
+HEARTBEAT_EVERY = 4096
+
+#: ``report(finished, total, iterations)`` of the innermost :func:`reporting`, or None.
+_reporters: list[Callable[[int, int, int], None]] = []
+
+
+@contextlib.contextmanager
+def reporting(report: Callable[[int, int, int], None]) -> Iterator[None]:
+    """Within this block, every :func:`run_episodes` calls ``report(finished, total, iterations)`` from the host
+    every :data:`HEARTBEAT_EVERY` loop iterations: ``finished`` of ``total`` episodes have ended after
+    ``iterations`` steps of the lanes. ``report`` should return quickly (it runs while the loop waits)."""
+    _reporters.append(report)
+    try:
+        yield
+    finally:
+        _reporters.remove(report)
+
+
+def _heartbeat(finished, total, iterations) -> None:
+    """The host side of the loop's progress call: pass it to the innermost reporter, if any."""
+    if _reporters:
+        _reporters[-1](int(finished), int(total), int(iterations))
 
 
 def _take(tree, index):
@@ -59,7 +92,9 @@ def run_episodes(env: Environment, params: Any, policy: Callable, key: jax.Array
         return obs2, state2, term | trunc
 
     def body(carry):
-        obs, state, episode, active, next_episode, finals, finished_count = carry
+        obs, state, episode, active, next_episode, finals, finished_count, iteration = carry
+        jax.lax.cond(iteration % HEARTBEAT_EVERY == HEARTBEAT_EVERY - 1,
+                     lambda: jax.debug.callback(_heartbeat, finished_count, n, iteration + 1), lambda: None)
         step_keys = jax.vmap(jax.random.fold_in)(run_keys[episode], state.time)
         obs2, state2, done = jax.vmap(one)(step_keys, obs, state)
         ended = active & done
@@ -75,7 +110,7 @@ def run_episodes(env: Environment, params: Any, policy: Callable, key: jax.Array
         obs2 = tree_select(refill, obs0[fresh], obs2)
         active = jnp.where(ended, refill, active)
         count = jnp.sum(ended)
-        return obs2, state2, episode, active, next_episode + count, finals, finished_count + count
+        return obs2, state2, episode, active, next_episode + count, finals, finished_count + count, iteration + 1
 
     carry = (
         obs0[:lanes],
@@ -84,6 +119,7 @@ def run_episodes(env: Environment, params: Any, policy: Callable, key: jax.Array
         jnp.ones(lanes, bool),
         jnp.int32(lanes),
         state0,
+        jnp.int32(0),
         jnp.int32(0),
     )
     carry = jax.lax.while_loop(lambda c: c[6] < n, body, carry)

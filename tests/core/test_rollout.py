@@ -3,6 +3,7 @@
 import jax
 import numpy as np
 
+from jaxdc.core import grid, rollout
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import navigators
@@ -36,3 +37,33 @@ def test_every_episode_finished_and_seed_matters():
     assert np.all(np.asarray(a.time) <= 40)
     c = RUN(jax.random.PRNGKey(1), 64)
     assert not np.array_equal(np.asarray(a.ep_reward), np.asarray(c.ep_reward))
+
+
+def _stay(key, obs, state):
+    return jax.numpy.int32(grid.STAY)  # staying put without risk or energy limit: a game ends at the step cap
+
+
+def test_progress_reaches_the_reporter_and_changes_nothing(monkeypatch):
+    # a long evaluation (games that only end at a large step cap) reports its progress from inside the loop
+    monkeypatch.setattr(rollout, "HEARTBEAT_EVERY", 64)
+    env = DCP(grid_size=5, total_reward=6)
+    params = env.make_params(np.zeros((5, 5)), (float("inf"), float("inf")), max_steps=1000)
+    run = jax.jit(lambda key: run_episodes(env, params, _stay, key, 10, lanes=4))
+    quiet = run(jax.random.PRNGKey(0))
+    reports = []
+    with rollout.reporting(lambda *r: reports.append(r)):
+        loud = run(jax.random.PRNGKey(0))  # the same compiled loop: the reporter is looked up on the host
+        jax.block_until_ready(loud)
+    assert rollout._reporters == []
+    # 10 games of 1,000 steps on 4 lanes: 3 rounds of 1,000 iterations, a report every 64
+    assert [r[2] for r in reports] == list(range(64, 3000, 64))
+    assert all(r[1] == 10 for r in reports)
+    finished = [r[0] for r in reports]
+    assert finished == sorted(finished) and finished[0] == 0 and finished[-1] == 8
+    for x, y in zip(jax.tree_util.tree_leaves(quiet), jax.tree_util.tree_leaves(loud)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    with rollout.reporting(lambda *r: reports.append(r)):
+        pass
+    n = len(reports)
+    jax.block_until_ready(run(jax.random.PRNGKey(1)))  # outside the block: nobody is told
+    assert len(reports) == n
