@@ -48,6 +48,7 @@ import jax
 
 from jaxdc import pretrained
 from jaxdc.cli import eval_dcg_energies as energies
+from jaxdc.cli import runner
 from jaxdc.cli.args import integer, positive_float, positive_int, seed
 from jaxdc.cli.eval_dcg_settings import EvaluateSettings, FigureSettings, OptimumSettings, RenderSettings
 from jaxdc.cli.runner import run
@@ -319,16 +320,17 @@ def _evaluate(args, command) -> int:
                              "or a network trained as a team) plays the standard game")
         if not s.json:
             print(f"Evaluating {learned.describe()}: {s.episodes} games, seed {s.seed} ...", file=sys.stderr)
-        if team:
-            if s.mask not in (None, "none"):
-                raise ValueError(f"--mask {s.mask} plays one collector; a team (--collectors, or a network trained "
-                                 "as a team) plays without one")
-            r = evaluate_learned_team(learned, s.collectors, episodes=s.episodes, seed=s.seed, greedy=s.greedy,
-                                      energy=s.energy, strategies=s.strategies, max_steps=s.max_steps)
-        else:
-            r = evaluate(learned, episodes=s.episodes, seed=s.seed, energy=s.energy, strategies=s.strategies,
-                         reward_area=s.reward_area, max_steps=s.max_steps, greedy=s.greedy, rpe_zero=s.rpe_zero,
-                         bound=s.bound, mask=s.mask)
+        if team and s.mask not in (None, "none"):
+            raise ValueError(f"--mask {s.mask} plays one collector; a team (--collectors, or a network trained "
+                             "as a team) plays without one")
+        with runner.progress(PROG, s.max_steps):  # a huge --max-steps: a line a minute while it plays
+            if team:
+                r = evaluate_learned_team(learned, s.collectors, episodes=s.episodes, seed=s.seed, greedy=s.greedy,
+                                          energy=s.energy, strategies=s.strategies, max_steps=s.max_steps)
+            else:
+                r = evaluate(learned, episodes=s.episodes, seed=s.seed, energy=s.energy, strategies=s.strategies,
+                             reward_area=s.reward_area, max_steps=s.max_steps, greedy=s.greedy,
+                             rpe_zero=s.rpe_zero, bound=s.bound, mask=s.mask)
     except (TypeError, ValueError) as e:
         args.error(str(e))
     r["command"] = command

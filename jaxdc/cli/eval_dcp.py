@@ -55,6 +55,7 @@ import sys
 
 from jaxdc import pretrained
 from jaxdc.cli import eval_dcp_generalisation as generalisation
+from jaxdc.cli import runner
 from jaxdc.cli.args import integer, positive_float, positive_int, real, seed, unit_interval
 from jaxdc.cli.runner import command_line, with_subcommand
 from jaxdc.core import grid
@@ -354,9 +355,10 @@ def main(argv=None) -> int:
             if learned is not None:
                 print(f"  learned: {learned.describe()}", file=sys.stderr)
         settings = settle(args, spec, learned, argv)
-        rows = evaluate_rows(settings.policies, settings.setting, settings.options, settings.playing,
-                             settings.learned, progress)
-        best = play_best(settings, rows, progress) if settings.best else None
+        with runner.progress(PROG, args.max_steps):  # a huge --max-steps: a line a minute while it plays
+            rows = evaluate_rows(settings.policies, settings.setting, settings.options, settings.playing,
+                                 settings.learned, progress)
+            best = play_best(settings, rows, progress) if settings.best else None
     except (TypeError, ValueError, MemoryError) as e:
         parser.error(str(e))
     return show(settings, rows, best)

@@ -12,10 +12,10 @@
 
 Set ``JAXDC_DEBUG=1`` to see the full traceback instead.
 
-While ``main`` runs, a batched evaluation that takes long says how far it is:
-one line on stderr at most every ``JAXDC_PROGRESS_EVERY`` seconds (default
-60; :func:`progress_printer`, fed by :func:`jaxdc.core.rollout.reporting`),
-e.g. for games that never end under a huge ``--max-steps``.
+:func:`progress` is how a command whose step cap allows long games (a huge
+``--max-steps``, games that never end) says how far its evaluation is: one
+line on stderr at most every ``JAXDC_PROGRESS_EVERY`` seconds (default 60;
+:func:`progress_printer`, fed by :func:`jaxdc.core.rollout.reporting`).
 
 :func:`exit_process` ends a command-line process with a status: after an
 interruption it flushes and leaves with ``os._exit``, because the interpreter's
@@ -28,6 +28,7 @@ with subcommands its default one when a command line names none.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shlex
 import signal
@@ -35,12 +36,14 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
-from typing import TextIO
+from typing import ContextManager, TextIO
 
 #: Exit statuses: a usage or input error (as argparse), Ctrl-C, SIGTERM.
 EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 130, 143
 #: Seconds between two progress lines of a long evaluation, unless ``JAXDC_PROGRESS_EVERY`` says otherwise.
 PROGRESS_EVERY = 60.0
+#: A step cap above this allows games long enough to want progress lines (the defaults are 100 and 1,000).
+LONG_GAME_STEPS = 100_000
 
 
 class Terminated(KeyboardInterrupt):
@@ -101,6 +104,17 @@ def progress_printer(prog: str, every: float, stream: TextIO | None = None,
     return report
 
 
+def progress(prog: str, max_steps: int | None) -> ContextManager[None]:
+    """The block a command evaluates in: with a step cap over :data:`LONG_GAME_STEPS`, the evaluation loops
+    traced inside it print their progress (:func:`progress_printer`); otherwise nothing changes, and the
+    loops stay cacheable by JAX's persistent compile cache (which skips programs with host callbacks)."""
+    if max_steps is None or max_steps <= LONG_GAME_STEPS:
+        return contextlib.nullcontext()
+    from jaxdc.core import rollout
+
+    return rollout.reporting(progress_printer(prog, progress_every()))
+
+
 def run(main, prog: str, argv=None) -> int:
     """``main(argv)``'s exit status, with the conventions above."""
     debug = bool(os.environ.get("JAXDC_DEBUG"))
@@ -108,10 +122,7 @@ def run(main, prog: str, argv=None) -> int:
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _on_sigterm) if main_thread else None
     try:
-        from jaxdc.core import rollout  # here, so that an interruption while jax loads is handled too
-
-        with rollout.reporting(progress_printer(prog, progress_every())):
-            return int(main(argv) or 0)
+        return int(main(argv) or 0)
     except Terminated:
         print(f"{prog}: terminated", file=sys.stderr)
         return EXIT_TERMINATED

@@ -13,12 +13,14 @@ The policy is ``policy(key, obs, state) -> action`` for one environment; it
 is vmapped here and may close over network parameters, path tables and so on.
 
 An evaluation whose games never end (a huge step cap) can run for hours inside
-one ``while_loop``. Every :data:`HEARTBEAT_EVERY` loop iterations the loop
-calls the host (``jax.debug.callback``) with its progress; inside
-:func:`reporting` that reaches a reporter, otherwise nothing happens. The
-command lines install a reporter that prints a line now and then
-(:mod:`jaxdc.cli.runner`). The callback reads values and returns nothing, so
-the results are the same with or without a reporter.
+one ``while_loop``. A loop *traced* inside :func:`reporting` calls the host
+(``jax.debug.callback``) every :data:`HEARTBEAT_EVERY` loop iterations with its
+progress, and the reporter of the innermost block gets it. Loops traced outside
+any block carry no call: JAX's persistent compile cache does not keep programs
+with host callbacks, so the progress call is compiled in only where it is
+wanted (the command lines ask for it when the step cap allows long games,
+:func:`jaxdc.cli.runner.progress`). The callback reads values and returns
+nothing, so the results are the same with or without it.
 """
 
 from __future__ import annotations
@@ -44,9 +46,10 @@ _reporters: list[Callable[[int, int, int], None]] = []
 
 @contextlib.contextmanager
 def reporting(report: Callable[[int, int, int], None]) -> Iterator[None]:
-    """Within this block, every :func:`run_episodes` calls ``report(finished, total, iterations)`` from the host
-    every :data:`HEARTBEAT_EVERY` loop iterations: ``finished`` of ``total`` episodes have ended after
-    ``iterations`` steps of the lanes. ``report`` should return quickly (it runs while the loop waits)."""
+    """Every :func:`run_episodes` *traced* within this block calls ``report(finished, total, iterations)`` from
+    the host every :data:`HEARTBEAT_EVERY` loop iterations: ``finished`` of ``total`` episodes have ended after
+    ``iterations`` steps of the lanes. A jitted function traced before the block (and cached) stays silent.
+    ``report`` should return quickly (it runs while the loop waits)."""
     _reporters.append(report)
     try:
         yield
@@ -91,10 +94,13 @@ def run_episodes(env: Environment, params: Any, policy: Callable, key: jax.Array
         obs2, state2, _, term, trunc, _ = env.step_env(k_step, state, action, params)
         return obs2, state2, term | trunc
 
+    beat = bool(_reporters)  # at trace time: compile the progress call in only where someone listens
+
     def body(carry):
         obs, state, episode, active, next_episode, finals, finished_count, iteration = carry
-        jax.lax.cond(iteration % HEARTBEAT_EVERY == HEARTBEAT_EVERY - 1,
-                     lambda: jax.debug.callback(_heartbeat, finished_count, n, iteration + 1), lambda: None)
+        if beat:
+            jax.lax.cond(iteration % HEARTBEAT_EVERY == HEARTBEAT_EVERY - 1,
+                         lambda: jax.debug.callback(_heartbeat, finished_count, n, iteration + 1), lambda: None)
         step_keys = jax.vmap(jax.random.fold_in)(run_keys[episode], state.time)
         obs2, state2, done = jax.vmap(one)(step_keys, obs, state)
         ended = active & done

@@ -40,35 +40,58 @@ def test_a_program_runs_from_a_worker_thread():
 
 
 def test_a_long_evaluation_says_how_far_it_is(monkeypatch, capsys):
-    # games that end only at a large step cap: every command line prints the progress of its evaluation loops
+    # games that end only at a huge step cap: a command prints the progress of the loops it plays in its block
     import jax
     import numpy as np
 
-    from jaxdc.cli.runner import run
+    from jaxdc.cli import runner
     from jaxdc.core import grid, rollout
     from jaxdc.dcp.env import DCP
 
     monkeypatch.setattr(rollout, "HEARTBEAT_EVERY", 100)
     monkeypatch.setenv("JAXDC_PROGRESS_EVERY", "0")
     env = DCP(grid_size=4)
-    params = env.make_params(np.zeros((4, 4)), (float("inf"), float("inf")), max_steps=500)
 
-    def main(argv):
-        jax.block_until_ready(rollout.run_episodes(env, params, lambda k, o, s: jax.numpy.int32(grid.STAY),
-                                                   jax.random.PRNGKey(0), 3, lanes=2))
+    def main(max_steps):
+        params = env.make_params(np.zeros((4, 4)), (float("inf"), float("inf")), max_steps=max_steps)
+        with runner.progress("prog", max_steps):
+            jax.block_until_ready(jax.jit(lambda k: rollout.run_episodes(
+                env, params, lambda k, o, s: jax.numpy.int32(grid.STAY), k, 3, lanes=2))(jax.random.PRNGKey(0)))
         return 0
 
-    assert run(main, "prog") == 0
+    monkeypatch.setattr(runner, "LONG_GAME_STEPS", 400)
+    assert runner.run(lambda argv: main(500), "prog") == 0
     lines = capsys.readouterr().err.splitlines()
     assert lines[0].startswith("prog: evaluating: 0 of 3 episodes finished after 100 steps (")
     assert lines[-1].startswith("prog: evaluating: 2 of 3 episodes finished after 1,000 steps (")
     assert len(lines) == 10
-    assert rollout._reporters == []  # the reporter ends with the program
-    # the default prints nothing in a short run; a bad interval is refused by name
+    assert rollout._reporters == []  # the reporter ends with the block
+    # a cap within LONG_GAME_STEPS compiles no progress call and prints nothing
+    assert runner.run(lambda argv: main(400), "prog") == 0
+    assert capsys.readouterr().err == ""
+    # the default interval prints nothing in a short run; a bad interval is refused by name
     monkeypatch.delenv("JAXDC_PROGRESS_EVERY")
-    assert run(main, "prog") == 0
+    assert runner.run(lambda argv: main(500), "prog") == 0
     assert capsys.readouterr().err == ""
     for bad in ("soon", "-1", "inf", "nan"):
         monkeypatch.setenv("JAXDC_PROGRESS_EVERY", bad)
-        assert run(main, "prog") == 2
+        assert runner.run(lambda argv: main(500), "prog") == 2
         assert f"JAXDC_PROGRESS_EVERY must be a finite number of seconds >= 0, got {bad!r}" in capsys.readouterr().err
+
+
+def test_progress_lines_come_at_most_every_interval():
+    import io
+
+    from jaxdc.cli.runner import progress_printer
+
+    now = [0.0]
+    out = io.StringIO()
+    report = progress_printer("prog", 60.0, out, clock=lambda: now[0])
+    for t, finished in ((30, 1), (61, 2), (90, 3), (121, 4), (300, 5)):
+        now[0] = float(t)
+        report(finished, 10_000, t * 1000)
+    assert out.getvalue().splitlines() == [
+        "prog: evaluating: 2 of 10,000 episodes finished after 61,000 steps (1.0 min)",
+        "prog: evaluating: 4 of 10,000 episodes finished after 121,000 steps (2.0 min)",
+        "prog: evaluating: 5 of 10,000 episodes finished after 300,000 steps (5.0 min)",
+    ]

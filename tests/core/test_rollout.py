@@ -48,12 +48,14 @@ def test_progress_reaches_the_reporter_and_changes_nothing(monkeypatch):
     monkeypatch.setattr(rollout, "HEARTBEAT_EVERY", 64)
     env = DCP(grid_size=5, total_reward=6)
     params = env.make_params(np.zeros((5, 5)), (float("inf"), float("inf")), max_steps=1000)
-    run = jax.jit(lambda key: run_episodes(env, params, _stay, key, 10, lanes=4))
+
+    def run(key):  # traced afresh at each call (a new jit wrapper)
+        return jax.block_until_ready(jax.jit(lambda k: run_episodes(env, params, _stay, k, 10, lanes=4))(key))
+
     quiet = run(jax.random.PRNGKey(0))
     reports = []
     with rollout.reporting(lambda *r: reports.append(r)):
-        loud = run(jax.random.PRNGKey(0))  # the same compiled loop: the reporter is looked up on the host
-        jax.block_until_ready(loud)
+        loud = run(jax.random.PRNGKey(0))
     assert rollout._reporters == []
     # 10 games of 1,000 steps on 4 lanes: 3 rounds of 1,000 iterations, a report every 64
     assert [r[2] for r in reports] == list(range(64, 3000, 64))
@@ -62,8 +64,10 @@ def test_progress_reaches_the_reporter_and_changes_nothing(monkeypatch):
     assert finished == sorted(finished) and finished[0] == 0 and finished[-1] == 8
     for x, y in zip(jax.tree_util.tree_leaves(quiet), jax.tree_util.tree_leaves(loud)):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
-    with rollout.reporting(lambda *r: reports.append(r)):
-        pass
+    # a loop traced outside any block carries no progress call, so it stays silent inside one
+    silent = jax.jit(lambda k: run_episodes(env, params, _stay, k, 10, lanes=4))
+    jax.block_until_ready(silent(jax.random.PRNGKey(1)))
     n = len(reports)
-    jax.block_until_ready(run(jax.random.PRNGKey(1)))  # outside the block: nobody is told
+    with rollout.reporting(lambda *r: reports.append(r)):
+        jax.block_until_ready(silent(jax.random.PRNGKey(2)))
     assert len(reports) == n
