@@ -34,7 +34,7 @@ from jaxdc import pretrained
 from jaxdc.agents.a2c import A2CConfig
 from jaxdc.agents.common import RunConfig
 from jaxdc.agents.nstep_q import EVAL_EPSILON, QConfig
-from jaxdc.cli.args import integer, positive_int, unit_interval
+from jaxdc.cli.args import integer, positive_int, real, unit_interval
 from jaxdc.cli.train_common import (
     A2C_FLAGS,
     EXIT_NAN,  # noqa: F401  (re-exported: the exit status after a NaN loss, as tests and scripts read it)
@@ -51,6 +51,7 @@ from jaxdc.cli.train_common import (
     training_energy,
 )
 from jaxdc.core import generators, grid
+from jaxdc.core.energy import MAX_ENERGY_TILT
 from jaxdc.io import check_not_input
 from jaxdc.training.dcp import NETS, DCPRun, DCPSettings, settings_from_metadata
 
@@ -82,6 +83,9 @@ def build_parser() -> argparse.ArgumentParser:
                    default=(0, 1024), help="the seeds of the training maps (held-out seeds are refused)")
     g.add_argument("--energy-range", nargs=2, type=training_energy("--energy-range"), metavar=("LOW", "HIGH"),
                    default=None, help="each training episode's maximum energy: a whole number in [LOW, HIGH]")
+    g.add_argument("--energy-tilt", type=real("--energy-tilt", -MAX_ENERGY_TILT, MAX_ENERGY_TILT), default=0.0,
+                   metavar="A", help="with --energy-range: draw the maximum energy with density E**-A (A > 0 weights "
+                                     "the small budgets; 1: log-uniform; default 0: uniform)")
     g.add_argument("--init-fraction", type=unit_interval("--init-fraction"), default=0.5,
                    help="with --energy-range: initial energy = round(F * maximum) (default 0.5, as 8/16)")
     add_a2c_arguments(p)  # --steps --seed(s) --envs --devices ... learner options ... --no-progress
@@ -127,7 +131,8 @@ def settle(args):
                            eval_epsilon=EVAL_EPSILON if args.eval_epsilon is None else args.eval_epsilon,
                            observation=args.observation, risk_maps=args.risk_maps, map_seeds=tuple(args.map_seeds),
                            energy_range=None if args.energy_range is None else tuple(args.energy_range),
-                           init_fraction=args.init_fraction, init_from=args.init_from)
+                           init_fraction=args.init_fraction, init_from=args.init_from,
+                           energy_tilt=args.energy_tilt)
     out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{seed_tag(args)}")
     return settings, run_control(args, out)
 

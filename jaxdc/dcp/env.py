@@ -75,6 +75,8 @@ class EnvParams:
     maps: jax.Array | None = None  # [M, N, N] float32: the risk maps an episode draws from
     tables: Any = None  # PathTable of [M, N*N, N*N] leaves: each map's safest paths
     energy_range: jax.Array | None = None  # [2] float32: the maximum energy is an int drawn from [low, high]
+    # float32 power-law tilt of that draw (core.energy.draw_max_energy; None: uniform over the integers)
+    energy_tilt: jax.Array | None = None
     init_fraction: jax.Array | None = None  # float32: initial energy = round(init_fraction * maximum), >= 1
 
 
@@ -250,7 +252,7 @@ class DCP(Environment[EnvState, EnvParams]):
         assert params.maps is not None and params.energy_range is not None and params.init_fraction is not None
         k_map, k_energy = jax.random.split(key)
         map_id = uniform_index(k_map, (), params.maps.shape[0])
-        max_e = draw_max_energy(k_energy, params.energy_range)
+        max_e = draw_max_energy(k_energy, params.energy_range, params.energy_tilt)
         init_e = jnp.clip(jnp.round(params.init_fraction * max_e), 1.0, max_e).astype(jnp.float32)
         return map_id, init_e, max_e
 

@@ -6,7 +6,8 @@ budget and map). :func:`instance_params` turns a set of maps ``[M, N, N]``
 range of maximum energies into :class:`~jaxdc.dcp.env.EnvParams` whose
 ``maps``, ``tables``, ``energy_range`` and ``init_fraction`` are set. Each
 reset then draws its map uniformly and its maximum energy uniformly among the
-integers of the range; the initial energy is ``init_fraction`` of it (the
+integers of the range (or, with ``energy_tilt``, by a power law that weights
+one end: :func:`jaxdc.core.energy.draw_max_energy`); the initial energy is ``init_fraction`` of it (the
 thesis' settings all start at half the maximum: 8/16, 16/32).
 
 The safest-path table of every map (section 4.4.1) is computed once here and
@@ -30,6 +31,7 @@ import numpy as np
 
 from jaxdc.core import grid
 from jaxdc.core.energy import check_energy_range as check_range
+from jaxdc.core.energy import check_energy_tilt
 from jaxdc.core.memory import check_fits
 from jaxdc.core.paths import PathTable, safest_paths
 from jaxdc.core.validate import check_float
@@ -81,7 +83,7 @@ def compute_tables(maps: np.ndarray) -> PathTable:
 
 
 def instance_params(env: DCP, maps: Any, energy_range: Any, init_fraction: float = 0.5,
-                    max_steps: int = 1000) -> EnvParams:
+                    max_steps: int = 1000, energy_tilt: float = 0.0) -> EnvParams:
     """Params whose episodes draw their risk map from ``maps`` and their maximum energy from ``energy_range``.
 
     Args:
@@ -91,15 +93,21 @@ def instance_params(env: DCP, maps: Any, energy_range: Any, init_fraction: float
         uniform over the integers of this range.
       init_fraction: the initial energy is ``round(init_fraction * maximum)``, at least 1 (``(0, 1]``).
       max_steps: the step cap.
+      energy_tilt: 0 (default): the maximum energy is uniform over the integers of ``energy_range``. Otherwise a
+        power-law tilt of that draw (beyond the thesis; :func:`jaxdc.core.energy.draw_max_energy`: each integer
+        ``E`` has the mass of ``x ** -energy_tilt`` over ``[E, E + 1)``, so a positive tilt weights the small
+        budgets), finite in ``[-MAX_ENERGY_TILT, MAX_ENERGY_TILT]``. 0 gives the same params (and games) as before.
     """
     arr = check_maps(maps, env.grid_size)
     low, high = check_energy_range(energy_range)
+    tilt = check_energy_tilt(energy_tilt)
     frac = check_float("init_fraction", init_fraction, 0.0, 1.0, low_open=True)
     check_fits(table_bytes(arr.shape[0], env.grid_size), f"the safest-path tables of {arr.shape[0]} maps",
                "the number of maps")
     base = env.make_params(arr[0], (max(1.0, round(frac * high)), high), max_steps)
     return dataclasses.replace(base, maps=jnp.asarray(arr), tables=compute_tables(arr),
-                        energy_range=jnp.asarray([low, high], jnp.float32), init_fraction=jnp.float32(frac))
+                        energy_range=jnp.asarray([low, high], jnp.float32), init_fraction=jnp.float32(frac),
+                        energy_tilt=None if tilt == 0.0 else jnp.float32(tilt))
 
 
 def fixed_instance(env: DCP, risk: Any, energy: Any, max_steps: int = 1000) -> EnvParams:

@@ -45,7 +45,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
     """The checks of a DCP network's stored setting: those of ``train.dcp``'s and ``eval.dcp``'s flags (the
     constructor's choices and ranges), strict about JSON types."""
     from jaxdc.core import grid
-    from jaxdc.core.energy import ENERGY_METRICS, MAX_FINITE_ENERGY
+    from jaxdc.core.energy import ENERGY_METRICS, MAX_ENERGY_TILT, MAX_FINITE_ENERGY
     from jaxdc.core.generators import GENERATORS
     from jaxdc.core.sampling import MAX_TOTAL_REWARD
     from jaxdc.core.validate import SEED_MAX
@@ -69,6 +69,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "seed": json_int(0, SEED_MAX), "steps": json_int(1, None), "updates": json_int(1, None),
         "risk_maps": optional(json_choice(tuple(GENERATORS))), "map_seeds": optional(json_list(json_int(0), 2)),
         "energy_range": optional(json_list(json_number(0.0, MAX_FINITE_ENERGY, low_open=True), 2)),
+        "energy_tilt": json_number(-MAX_ENERGY_TILT, MAX_ENERGY_TILT),
         "init_fraction": optional(json_number(0.0, 1.0)),
         "init_from": optional(json_string), "init_sha256": optional(json_string),
         "env": json_object({"start": json_choice(dcp_env.STARTS), "items_on_base": json_bool,

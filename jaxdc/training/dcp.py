@@ -58,6 +58,8 @@ class DCPSettings:
         ``map_seeds = (start, count)`` maps of the named generator (``risk_maps``, one of
         :data:`jaxdc.core.generators.GENERATORS`; ``None``: the ``risk`` preset) and its maximum energy from
         ``energy_range`` (``None``: ``energy``), starting with ``init_fraction`` of it.
+      energy_tilt: with ``energy_range``, 0 (uniform) or a power-law tilt of the draw of the maximum energy
+        (:func:`jaxdc.core.energy.draw_max_energy`; a positive tilt weights the small budgets; beyond the thesis).
       init_from: ``None`` (a fresh initialisation, as the thesis) or a trained actor-critic of the run's network,
         grid size and observation -- a shipped name, a ``.msgpack`` or a ``train.dcp`` run folder -- whose
         parameters start the run (a warm start, beyond the thesis: :func:`start_params`). Not for EQN.
@@ -80,6 +82,7 @@ class DCPSettings:
     energy_range: tuple[float, float] | None = None
     init_fraction: float = 0.5
     init_from: str | None = None
+    energy_tilt: float = 0.0
 
     @property
     def per_episode(self) -> bool:
@@ -140,7 +143,7 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCPSettings, tuple
     meta = check_run(meta, "dcp", where)
     energy = recorded_pair(meta.get("energy", list(DCPSettings.energy)), "energy", where, " [initial, maximum]")
     setting = {k: meta[k] for k in ("risk", "grid_size", "total_reward", "min_total_reward", "max_steps",
-                                    "observation", "risk_maps", "init_fraction", "init_from")
+                                    "observation", "risk_maps", "init_fraction", "init_from", "energy_tilt")
                if meta.get(k) is not None}
     for k in ("map_seeds", "energy_range"):  # pairs, stored as lists
         if meta.get(k) is not None:

@@ -2,8 +2,9 @@
 
 A run that sets ``risk_maps`` or ``energy_range`` (:class:`jaxdc.training.dcp.DCPSettings`) trains on
 episodes that each draw a risk map from a seeded set of generated maps and a maximum energy from a range
-(:mod:`jaxdc.dcp.instances`). The held-out maps of the generalisation benchmark are the seeds of
-:data:`HELD_OUT`; a training run that names one of them is refused, so no test map is ever trained on.
+(:mod:`jaxdc.dcp.instances`; ``energy_tilt``: by a power law that weights one end of it). The held-out maps of
+the generalisation benchmark are the seeds of :data:`HELD_OUT`; a training run that names one of them is refused,
+so no test map is ever trained on.
 """
 
 from __future__ import annotations
@@ -13,9 +14,11 @@ from typing import Any
 import numpy as np
 
 from jaxdc.core import generators
+from jaxdc.core.energy import check_energy_tilt
 from jaxdc.core.validate import check_float, check_int
 from jaxdc.dcp import instances
 from jaxdc.dcp.env import DCP, OBSERVATIONS, EnvParams
+from jaxdc.training.fields import SettingError
 
 #: The held-out map seeds: the test maps of ``eval.dcp generalisation`` are drawn from these, training never.
 HELD_OUT = generators.SeedSet(generators.TEST_SEED_START, 1 << 20)
@@ -36,6 +39,9 @@ def check_instance_settings(s: Any) -> None:
         generators.check_disjoint(seeds, HELD_OUT)
     if s.energy_range is not None:
         instances.check_energy_range(s.energy_range)
+    if check_energy_tilt(s.energy_tilt) != 0.0 and s.energy_range is None:
+        raise SettingError(f"{{0}}={s.energy_tilt:g} tilts the draw of {{1}} and needs it: without {{1}}, "
+                           "{0} must be 0", "energy_tilt", "energy_range")
     check_float("init_fraction", s.init_fraction, 0.0, 1.0, low_open=True)
 
 
@@ -49,6 +55,8 @@ def instance_metadata(s: Any) -> dict:
         out["map_seeds"] = list(s.map_seeds)
     if s.energy_range is not None:
         out["energy_range"] = list(s.energy_range)
+    if s.energy_tilt != 0.0:
+        out["energy_tilt"] = s.energy_tilt
     if s.risk_maps is not None or s.energy_range is not None:
         out["init_fraction"] = s.init_fraction
     return out
@@ -63,4 +71,4 @@ def training_params(s: Any, env: DCP) -> EnvParams:
         maps = np.asarray(env.make_params(s.risk, tuple(s.energy), s.max_steps).risk)[None]
     energy_range = s.energy_range if s.energy_range is not None else (s.energy[1], s.energy[1])
     fraction = s.init_fraction if s.energy_range is not None else s.energy[0] / s.energy[1]
-    return instances.instance_params(env, maps, energy_range, fraction, s.max_steps)
+    return instances.instance_params(env, maps, energy_range, fraction, s.max_steps, s.energy_tilt)

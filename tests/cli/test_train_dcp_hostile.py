@@ -75,6 +75,9 @@ def _strict(path):
     (["--min-total-reward", "0"], ["--min-total-reward must be an integer >= 1"]),
     (["--grid-size", "1"], ["--grid-size", ">= 2", "1"]),
     (["--grid-size", "0"], ["--grid-size", ">= 2", "0"]),
+    (["--energy-tilt", "1"], ["--energy-tilt", "--energy-range"]),
+    (["--energy-tilt", "9", "--energy-range", "4", "8"], ["--energy-tilt", "9"]),
+    (["--energy-tilt", "nan", "--energy-range", "4", "8"], ["--energy-tilt", "NaN"]),
 ])
 def test_train_dcp_refuses_bad_flags(extra, needles, tmp_path, capsys):
     refused_leaving_no_run(train_dcp.main, TINY + extra, tmp_path / "run", capsys, *needles)

@@ -1,5 +1,6 @@
 """Per-episode DCP instances: maps and budgets drawn at reset (jaxdc.dcp.instances, DCP(observation="general"))."""
 
+import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -93,6 +94,47 @@ def test_thesis_observation_is_unchanged_by_the_option():
 def test_bad_instance_parameters_are_refused_by_name(maps, energy_range, frac, match):
     with pytest.raises((ValueError, TypeError), match=match):
         I.instance_params(DCP(), maps, energy_range, frac)
+
+
+@pytest.mark.parametrize("tilt", [1.0, 2.5])
+def test_a_tilted_budget_draw_follows_its_power_law(tilt):
+    """``energy_tilt`` (beyond the thesis): each maximum energy E of the range has the mass of ``x ** -tilt`` over
+    [E, E + 1), and the initial energy is still its fraction."""
+    env = DCP(total_reward=10, observation="general")
+    params = I.instance_params(env, _maps(), (8, 48), init_fraction=0.5, energy_tilt=tilt)
+    keys = jax.random.split(jax.random.PRNGKey(5), 20000)
+    states = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)[1]
+    drawn, e = np.asarray(states.max_energy), np.asarray(states.energy)
+    edges = np.arange(8.0, 50.0)
+    mass = np.diff(np.log(edges) if tilt == 1.0 else edges ** (1.0 - tilt) / (1.0 - tilt))
+    expected = mass / mass.sum()
+    observed = np.bincount(drawn.astype(int), minlength=49)[8:] / drawn.size
+    se = np.sqrt(expected * (1 - expected) / drawn.size)
+    assert np.all(np.abs(observed - expected) < 5 * se), (observed, expected)
+    np.testing.assert_array_equal(e, np.clip(np.round(0.5 * drawn), 1, drawn))
+
+
+def test_a_zero_tilt_gives_the_same_params_and_episodes():
+    env = DCP(total_reward=10, observation="general")
+    uniform = I.instance_params(env, _maps(), (8, 48))
+    zero = I.instance_params(env, _maps(), (8, 48), energy_tilt=0.0)
+    assert zero.energy_tilt is None
+    chex.assert_trees_all_equal(uniform, zero)
+    tilted = I.instance_params(env, _maps(), (8, 48), energy_tilt=1.0)
+    key = jax.random.PRNGKey(0)
+    a, b = env.reset(key, uniform)[1], env.reset(key, tilted)[1]
+    np.testing.assert_array_equal(np.asarray(a.items), np.asarray(b.items))  # the tilt moves the budget only
+    assert a.map_id == b.map_id
+
+
+@pytest.mark.parametrize("tilt, error, match", [
+    (float("nan"), ValueError, "energy_tilt must be >= -8 and <= 8, got NaN"),
+    (9.0, ValueError, "energy_tilt must be >= -8 and <= 8, got 9"),
+    ("1", TypeError, "energy_tilt must be a number"),
+])
+def test_bad_energy_tilts_are_refused_by_name(tilt, error, match):
+    with pytest.raises(error, match=match):
+        I.instance_params(DCP(), _maps(), (8, 16), energy_tilt=tilt)
 
 
 def test_observation_option_is_validated():

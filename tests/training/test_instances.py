@@ -40,3 +40,24 @@ def test_settings_refuse_held_out_seeds():
         DCPSettings(net="enn", config=A2CConfig(), energy_range=(20.0, 10.0))
     with pytest.raises(ValueError, match="observation must be one of"):
         DCPSettings(net="enn", config=A2CConfig(), observation="pixels")
+    with pytest.raises(ValueError, match="energy_tilt=2 tilts the draw of energy_range and needs it"):
+        DCPSettings(net="enn", config=A2CConfig(), energy_tilt=2.0)
+    with pytest.raises(ValueError, match="energy_tilt must be >= -8"):
+        DCPSettings(net="enn", config=A2CConfig(), energy_range=(8.0, 48.0), energy_tilt=10.0)
+
+
+def test_a_tilt_reaches_the_params_and_the_metadata_only_when_set():
+    from jaxdc.agents.a2c import A2CConfig
+    from jaxdc.dcp.env import DCP
+    from jaxdc.training.dcp import DCPSettings, run_metadata, settings_from_metadata
+    from jaxdc.training.instances import training_params
+
+    tilted = DCPSettings(net="enn", config=A2CConfig(), risk_maps="mix", map_seeds=(0, 4), energy_range=(8.0, 48.0),
+                         energy_tilt=1.5)
+    meta = run_metadata(tilted, [0])
+    assert meta["energy_tilt"] == 1.5
+    assert settings_from_metadata(meta, "config.json")[0] == tilted  # --config reproduces it
+    assert float(training_params(tilted, DCP()).energy_tilt) == 1.5
+    plain = DCPSettings(net="enn", config=A2CConfig(), risk_maps="mix", map_seeds=(0, 4), energy_range=(8.0, 48.0))
+    assert "energy_tilt" not in run_metadata(plain, [0])  # old files unchanged
+    assert training_params(plain, DCP()).energy_tilt is None

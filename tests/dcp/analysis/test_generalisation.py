@@ -14,8 +14,8 @@ def tiny_general_run(tmp_path_factory):
 
     out = str(tmp_path_factory.mktemp("gen") / "run")
     rc = train_dcp.main(["--net", "enn", "--observation", "general", "--risk-maps", "bumps", "--map-seeds", "0", "8",
-                         "--energy-range", "8", "20", "--total-reward", "5", "--steps", "1024", "--envs", "8",
-                         "--t-max", "8", "--eval-every", "1024", "--eval-episodes", "16", "--out", out,
+                         "--energy-range", "8", "20", "--energy-tilt", "1.5", "--total-reward", "5", "--steps", "1024",
+                         "--envs", "8", "--t-max", "8", "--eval-every", "1024", "--eval-episodes", "16", "--out", out,
                          "--no-progress"])
     assert rc == 0
     return out
@@ -26,7 +26,11 @@ def test_run_records_its_instances_and_reloads(tiny_general_run):
 
     meta = json.load(open(os.path.join(tiny_general_run, "config.json")))
     assert meta["observation"] == "general" and meta["risk_maps"] == "bumps" and meta["map_seeds"] == [0, 8]
-    assert meta["energy_range"] == [8.0, 20.0]
+    assert meta["energy_range"] == [8.0, 20.0] and meta["energy_tilt"] == 1.5
+    from jaxdc.training.dcp import settings_from_metadata
+
+    settings, _ = settings_from_metadata(meta, "config.json")
+    assert settings.energy_tilt == 1.5 and settings.energy_range == (8.0, 20.0)
     net = learned.load(tiny_general_run)
     assert net.observation == "general"
     assert gen.training_range(net.metadata) == (8.0, 20.0)
