@@ -14,6 +14,7 @@ from jaxdc.core.energy import ENERGY_SCALE
 from jaxdc.core.env import step_batch
 from jaxdc.dcg.env import DCG, EnvState
 from jaxdc.nets.registry import build
+from tests.support.draws import assert_power_law
 
 KEYS = jax.random.split(jax.random.PRNGKey(3), 2000)
 
@@ -38,12 +39,7 @@ def test_a_tilted_draw_follows_its_power_law(tilt):
     env = DCG()
     keys = jax.random.split(jax.random.PRNGKey(7), 20000)
     drawn = np.asarray(_reset_many(env, env.make_params(energy_range=(8, 25), energy_tilt=tilt), keys)[1].max_energy)
-    edges = np.arange(8.0, 27.0)
-    mass = np.diff(np.log(edges) if tilt == 1.0 else edges ** (1.0 - tilt) / (1.0 - tilt))
-    expected = mass / mass.sum()
-    observed = np.bincount(drawn.astype(int), minlength=26)[8:] / drawn.size
-    se = np.sqrt(expected * (1 - expected) / drawn.size)
-    assert np.all(np.abs(observed - expected) < 5 * se), (observed, expected)
+    expected = assert_power_law(drawn, 8, 25, tilt)
     assert (expected[0] > expected[-1]) == (tilt > 0)  # a positive tilt weights the low budgets
 
 

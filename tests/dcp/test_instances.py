@@ -11,6 +11,7 @@ from jaxdc.core.rollout import run_episodes
 from jaxdc.dcp import instances as I
 from jaxdc.dcp.env import DCP, ENERGY_SCALE
 from jaxdc.dcp.evaluate import evaluate_heuristic, summarize
+from tests.support.draws import assert_power_law
 
 
 def _maps(n=8):
@@ -105,12 +106,7 @@ def test_a_tilted_budget_draw_follows_its_power_law(tilt):
     keys = jax.random.split(jax.random.PRNGKey(5), 20000)
     states = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)[1]
     drawn, e = np.asarray(states.max_energy), np.asarray(states.energy)
-    edges = np.arange(8.0, 50.0)
-    mass = np.diff(np.log(edges) if tilt == 1.0 else edges ** (1.0 - tilt) / (1.0 - tilt))
-    expected = mass / mass.sum()
-    observed = np.bincount(drawn.astype(int), minlength=49)[8:] / drawn.size
-    se = np.sqrt(expected * (1 - expected) / drawn.size)
-    assert np.all(np.abs(observed - expected) < 5 * se), (observed, expected)
+    assert_power_law(drawn, 8, 48, tilt)
     np.testing.assert_array_equal(e, np.clip(np.round(0.5 * drawn), 1, drawn))
 
 
