@@ -89,3 +89,23 @@ def test_export_only_refuses_the_dcg_entries(capsys):
     with pytest.raises(SystemExit) as e:
         train_ship.main(["--export-only", "--only", "vnn_strong"])
     assert e.value.code == 2 and "written by train.dcg --ship" in capsys.readouterr().err
+
+
+def test_the_tilted_general_network_records_its_recipe():
+    """enn_general_tilt: enn_general's recipe with energy_tilt 1; the shipped file records it, and --config
+    enn_general_tilt settles to the algorithm it was trained with."""
+    import dataclasses
+
+    from jaxdc import pretrained
+    from jaxdc.cli import train_dcp
+    from jaxdc.cli.train_common import parse_with_config
+    from jaxdc.training import dcp
+
+    args = parse_with_config(train_dcp.build_parser(), ["--config", "enn_general_tilt"], "dcp",
+                             dcp.settings_from_metadata)
+    settings, _ = train_dcp.settle(args)
+    assert settings.energy_tilt == 1.0 and settings.config.gamma == 0.99 and settings.energy_range == (8.0, 48.0)
+    shipped = pretrained.read_metadata(pretrained.shipped("dcp", "enn_general_tilt"))
+    assert shipped["energy_tilt"] == 1.0 and shipped["energy_range"] == [8.0, 48.0] and shipped["seed"] == 0
+    assert shipped["algorithm"] == dataclasses.asdict(settings.config)
+    assert "energy_tilt" not in pretrained.read_metadata(pretrained.shipped("dcp", "enn_general"))
