@@ -33,7 +33,7 @@ import jax.numpy as jnp
 from jaxdc import pretrained
 from jaxdc.agents import a2c
 from jaxdc.agents.centralised import actor_params
-from jaxdc.core.energy import check_energy_range, check_energy_tilt
+from jaxdc.core.energy import check_energy_range
 from jaxdc.core.env import step_batch
 from jaxdc.core.masks import MASKS, make_mask
 from jaxdc.core.rollout import run_episodes
@@ -52,7 +52,7 @@ from jaxdc.metadata import FORMAT, check_run, recorded_pair, run_settings
 from jaxdc.nets import DCG_NETS, build
 from jaxdc.nets.registry import ALGOS, build_critic
 from jaxdc.nets.transfer import widen_inputs
-from jaxdc.training.fields import SettingError
+from jaxdc.training.fields import SettingError, check_tilt_has_range
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
 from jaxdc.training.warm_start import check_init_from, check_same_setting, init_metadata
 
@@ -133,9 +133,7 @@ class DCGSettings:
                                f"{{1}} = {self.collectors} it must be 'none'", "mask", "collectors")
         if self.energy_range is not None:
             check_energy_range(self.energy_range, MIN_RANGE_ENERGY)
-        if check_energy_tilt(self.energy_tilt) != 0.0 and self.energy_range is None:
-            raise SettingError(f"{{0}}={self.energy_tilt:g} tilts the draw of {{1}} and needs it: without {{1}}, "
-                               "{0} must be 0", "energy_tilt", "energy_range")
+        check_tilt_has_range(self.energy_tilt, self.energy_range)
 
     @property
     def has_aux(self) -> bool:

@@ -90,3 +90,16 @@ class SettingError(ValueError):
     def render(self, name: Callable[[str], str] = flag) -> str:
         """The message with each field written as ``name(field)`` (default: its command-line flag)."""
         return self.template.format(*(name(f) for f in self.fields))
+
+
+def check_tilt_has_range(energy_tilt: Any, energy_range: Any) -> float:
+    """The checked ``energy_tilt`` of a run's settings (DCP and DCG alike): a finite tilt of the draw of
+    ``energy_range`` (:func:`jaxdc.core.energy.check_energy_tilt`), which must be 0 when there is no range."""
+    from jaxdc.core.energy import check_energy_tilt
+    from jaxdc.core.validate import value_text
+
+    tilt = check_energy_tilt(energy_tilt)
+    if tilt != 0.0 and energy_range is None:
+        raise SettingError(f"{{0}}={value_text(tilt)} tilts the draw of {{1}} and needs it: without {{1}}, "
+                           "{0} must be 0", "energy_tilt", "energy_range")
+    return tilt

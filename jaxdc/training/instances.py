@@ -14,11 +14,10 @@ from typing import Any
 import numpy as np
 
 from jaxdc.core import generators
-from jaxdc.core.energy import check_energy_tilt
 from jaxdc.core.validate import check_float, check_int
 from jaxdc.dcp import instances
 from jaxdc.dcp.env import DCP, OBSERVATIONS, EnvParams
-from jaxdc.training.fields import SettingError
+from jaxdc.training.fields import check_tilt_has_range
 
 #: The held-out map seeds: the test maps of ``eval.dcp generalisation`` are drawn from these, training never.
 HELD_OUT = generators.SeedSet(generators.TEST_SEED_START, 1 << 20)
@@ -39,9 +38,7 @@ def check_instance_settings(s: Any) -> None:
         generators.check_disjoint(seeds, HELD_OUT)
     if s.energy_range is not None:
         instances.check_energy_range(s.energy_range)
-    if check_energy_tilt(s.energy_tilt) != 0.0 and s.energy_range is None:
-        raise SettingError(f"{{0}}={s.energy_tilt:g} tilts the draw of {{1}} and needs it: without {{1}}, "
-                           "{0} must be 0", "energy_tilt", "energy_range")
+    check_tilt_has_range(s.energy_tilt, s.energy_range)
     check_float("init_fraction", s.init_fraction, 0.0, 1.0, low_open=True)
 
 
