@@ -141,7 +141,7 @@ def _checked(action: argparse.Action, field: str, v: Any, where: str) -> Any:
             raise ValueError(f"{where}: {field}={x!r} is not one of {action.option_strings[0]}'s choices "
                              f"{tuple(action.choices)}")
         out.append(x)
-    return tuple(out) if isinstance(action.nargs, int) else out[0]
+    return tuple(out) if isinstance(action.nargs, int) or action.nargs in ("+", "*") else out[0]
 
 
 def set_field_defaults(p: argparse.ArgumentParser, fields: Iterable[tuple[str, Any]], where: str,

@@ -53,6 +53,7 @@ from jaxdc.cli.train_common import (
 from jaxdc.core import generators, grid
 from jaxdc.core.energy import MAX_ENERGY_TILT
 from jaxdc.io import check_not_input
+from jaxdc.nets.body import MAX_CONV_LAYERS, MAX_WIDTH
 from jaxdc.training.dcp import NETS, DCPRun, DCPSettings, settings_from_metadata
 
 #: EQN's default environment steps between target-network copies (``QConfig.target_every``).
@@ -88,6 +89,12 @@ def build_parser() -> argparse.ArgumentParser:
                                      "the small budgets; 1: log-uniform; default 0: uniform)")
     g.add_argument("--init-fraction", type=unit_interval("--init-fraction"), default=0.5,
                    help="with --energy-range: initial energy = round(F * maximum) (default 0.5, as 8/16)")
+    b = p.add_argument_group("the network's body (beyond the thesis; docs/generalisation.md)")
+    b.add_argument("--body-features", nargs="+", type=positive_int("--body-features", MAX_WIDTH), default=None,
+                   metavar="F", help=f"enn, eqn, cnn: the filter counts of the 3x3 convolutional layers, 1 to "
+                                     f"{MAX_CONV_LAYERS} of them (default: the thesis' 32 16)")
+    b.add_argument("--body-hidden", type=positive_int("--body-hidden", MAX_WIDTH), default=None, metavar="H",
+                   help="enn, eqn, cnn: the units of the hidden dense layer (default: the thesis' 256)")
     add_a2c_arguments(p)  # --steps --seed(s) --envs --devices ... learner options ... --no-progress
     add_config_arguments(p, "dcp")
     p.add_argument("--target-every", type=positive_int("--target-every"), default=None,
@@ -132,7 +139,9 @@ def settle(args):
                            observation=args.observation, risk_maps=args.risk_maps, map_seeds=tuple(args.map_seeds),
                            energy_range=None if args.energy_range is None else tuple(args.energy_range),
                            init_fraction=args.init_fraction, init_from=args.init_from,
-                           energy_tilt=args.energy_tilt)
+                           energy_tilt=args.energy_tilt,
+                           body_features=None if args.body_features is None else tuple(args.body_features),
+                           body_hidden=args.body_hidden)
     out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{seed_tag(args)}")
     return settings, run_control(args, out)
 

@@ -50,6 +50,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
     from jaxdc.core.sampling import MAX_TOTAL_REWARD
     from jaxdc.core.validate import SEED_MAX
     from jaxdc.dcp import env as dcp_env
+    from jaxdc.nets.body import MAX_WIDTH
     from jaxdc.pretrained import (
         json_bool,
         json_choice,
@@ -72,6 +73,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "energy_tilt": json_number(-MAX_ENERGY_TILT, MAX_ENERGY_TILT),
         "init_fraction": optional(json_number(0.0, 1.0)),
         "init_from": optional(json_string), "init_sha256": optional(json_string),
+        "body_features": json_list(json_int(1, MAX_WIDTH)), "body_hidden": json_int(1, MAX_WIDTH),
         "env": json_object({"start": json_choice(dcp_env.STARTS), "items_on_base": json_bool,
                             "idle_terminates": json_bool, "item_order": json_choice(dcp_env.ITEM_ORDERS),
                             "energy_metric": json_choice(ENERGY_METRICS)}),
@@ -84,6 +86,10 @@ def check_setting(meta: dict, where: str) -> dict:
     from jaxdc.dcp.env import DCP
 
     pretrained.check_settings(meta, where, _setting_schema())
+    try:
+        make_network(meta.get("net", "enn"), meta)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{where}: its network does not build: {e}") from None
     s = {k: meta.get(k, DEFAULT_SETTING[k]) for k in SETTING_KEYS}
     energy = tuple(float(e) for e in s["energy"])  # "inf" reads as inf
     try:
@@ -142,9 +148,15 @@ class Learned(pretrained.Learned):
                 f"{_trained_for(self.metadata)}, seed {self.metadata.get('seed', '?')} ({self.source})")
 
 
-def make_network(net_name: str) -> Any:
-    """The flax module of ``net_name`` (ENN Fig. 4.3, EQN Fig. 4.4, linear learner Table 4.9, CNN)."""
-    return build("dcp", net_name)
+#: The metadata keys that size a network's convolutional body (beyond the thesis; absent: the thesis' body).
+BODY_KEYS = ("body_features", "body_hidden")
+
+
+def make_network(net_name: str, meta: dict | None = None) -> Any:
+    """The flax module of ``net_name`` (ENN Fig. 4.3, EQN Fig. 4.4, linear learner Table 4.9, CNN), with the body
+    its metadata ``meta`` records (:data:`BODY_KEYS`; none: the thesis' body)."""
+    meta = meta or {}
+    return build("dcp", net_name, **{k: meta[k] for k in BODY_KEYS if meta.get(k) is not None})
 
 
 def init_params(net: Any, grid_size: int, key: jax.Array | None = None, observation: str = "thesis") -> Any:
@@ -186,7 +198,7 @@ def load(path: pretrained.PathLike, net: str | None = None, grid_size: int | Non
     name, params, meta, source = pretrained.load_trained(path, "dcp", NETS, _train_state, net,
                                                          _grid_checker(grid_size), run_seed=run_seed,
                                                          check_setting=check_setting)
-    module = make_network(name)
+    module = make_network(name, meta)
     params = check_params(name, module, params, meta.get("grid_size", DEFAULT_SETTING["grid_size"]), source,
                           observation_of(meta))
     return Learned(name, module, params, meta, source)
@@ -216,7 +228,7 @@ def _train_state(name: str, meta: dict, source: str) -> Any:
         heur = instances.batched_heuristics(env_params)
     else:
         heur = navigators.batched_heuristics(env_params, safest_paths(env_params.risk))
-    trainer = (nstep_q if q_learning else a2c).make_train(config, env, env_params, make_network(name), heur)
+    trainer = (nstep_q if q_learning else a2c).make_train(config, env, env_params, make_network(name, meta), heur)
     return trainer.init(jax.random.PRNGKey(0))
 
 

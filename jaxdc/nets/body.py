@@ -8,17 +8,41 @@ layers are followed by rectifier nonlinearity."
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Sequence
 
 import flax.linen as nn
 import jax.numpy as jnp
+
+from jaxdc.core.validate import check_int
+
+#: The thesis' body (section 4.5): the filter counts of the two convolutional layers and the hidden units.
+THESIS_FEATURES: tuple[int, ...] = (32, 16)
+THESIS_HIDDEN = 256
+#: The bounds of an optional body (beyond the thesis): up to this many convolutional layers, each and the hidden
+#: layer at most :data:`MAX_WIDTH` units wide (a guard against a typo that would not fit in memory).
+MAX_CONV_LAYERS, MAX_WIDTH = 6, 4096
+
+
+def check_body(body_features: Any, body_hidden: Any) -> tuple[tuple[int, ...], int]:
+    """``(body_features, body_hidden)``, the ``features`` and ``hidden`` of a :class:`ConvBody`, as ``(tuple of
+    ints, int)``: 1..:data:`MAX_CONV_LAYERS` filter counts and a hidden width, each in ``1..MAX_WIDTH``; else a
+    ``TypeError``/``ValueError`` naming the parameter."""
+    features, hidden = body_features, body_hidden
+    fname, hname = "body_features", "body_hidden"
+    if isinstance(features, (str, bytes)) or not isinstance(features, Sequence):
+        raise TypeError(f"{fname} must be a sequence of 1..{MAX_CONV_LAYERS} filter counts, got {features!r}")
+    if not 1 <= len(features) <= MAX_CONV_LAYERS:
+        raise ValueError(f"{fname} must hold 1..{MAX_CONV_LAYERS} filter counts, got {len(features)}: "
+                         f"{list(features)!r}")
+    checked = tuple(check_int(f"{fname}[{i}]", f, 1, MAX_WIDTH) for i, f in enumerate(features))
+    return checked, check_int(hname, hidden, 1, MAX_WIDTH)
 
 
 class ConvBody(nn.Module):
     """``obs [B, N, N, C] -> features [B, hidden]``: conv 3x3 (same) x len(features), then dense, all ReLU."""
 
-    features: Sequence[int] = (32, 16)
-    hidden: int = 256
+    features: Sequence[int] = THESIS_FEATURES
+    hidden: int = THESIS_HIDDEN
 
     @nn.compact
     def __call__(self, obs):

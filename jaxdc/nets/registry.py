@@ -16,11 +16,13 @@ Yu et al. 2022), built by :func:`build_critic`.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from typing import Any, cast
 
 import flax.linen as nn
 
 from jaxdc.core.validate import check_choice, is_int
+from jaxdc.nets.body import THESIS_FEATURES, THESIS_HIDDEN, check_body
 from jaxdc.nets.cnn import CNN
 from jaxdc.nets.critic import WorldCritic
 from jaxdc.nets.emnn import EMNN
@@ -42,6 +44,9 @@ class NetEntry:
     algorithm: str = A2C
     #: Whether the constructor takes ``history`` (the DCG networks that read ``k`` previous agent planes).
     takes_history: bool = False
+    #: Whether the network has the convolutional body of section 4.5, sized by ``body_features`` and
+    #: ``body_hidden``.
+    takes_body: bool = False
 
     @property
     def uses_heuristics(self) -> bool:
@@ -55,8 +60,8 @@ class NetEntry:
 
 
 #: The DCP's networks (section 4.5), in the order of the thesis' tables: ENN, the linear learner, the CNN, EQN.
-DCP_NETS: dict[str, NetEntry] = {"enn": NetEntry(ENN), "linear": NetEntry(Linear), "cnn": NetEntry(CNN),
-                                 "eqn": NetEntry(EQN, NSTEP_Q)}
+DCP_NETS: dict[str, NetEntry] = {"enn": NetEntry(ENN, takes_body=True), "linear": NetEntry(Linear),
+                                 "cnn": NetEntry(CNN, takes_body=True), "eqn": NetEntry(EQN, NSTEP_Q, takes_body=True)}
 #: The DCG's networks (section 5.4), in the order of the thesis' figures.
 DCG_NETS: dict[str, NetEntry] = {"vnn": NetEntry(VNN), "imnn": NetEntry(IMNN, takes_history=True),
                                  "emnn": NetEntry(EMNN, takes_history=True),
@@ -84,15 +89,38 @@ def entry(problem: str, name: str) -> NetEntry:
     return nets[name]
 
 
+def body_options(problem: str, name: str, body_features: Any = None, body_hidden: Any = None) -> dict[str, Any]:
+    """The constructor options that size network ``name``'s convolutional body (section 4.5; beyond the thesis):
+    ``{}`` when both are ``None`` (the thesis' ``(32, 16)`` filters and 256 hidden units), else
+    ``{"body_features": tuple, "body_hidden": int}`` with the thesis' value for the one left ``None``. Only ENN,
+    EQN and the CNN have the body, and the sizes are bounded (:func:`jaxdc.nets.body.check_body`); else a
+    ``TypeError``/``ValueError`` naming the parameter."""
+    if body_features is None and body_hidden is None:
+        return {}
+    if not entry(problem, name).takes_body:
+        given = ", ".join(f"{n}={v!r}" for n, v in (("body_features", body_features), ("body_hidden", body_hidden))
+                          if v is not None)
+        raise ValueError(f"{given}: network {name!r} has no convolutional body to size (ENN, EQN and the CNN "
+                         f"have one)")
+    features, hidden = check_body(THESIS_FEATURES if body_features is None else body_features,
+                                  THESIS_HIDDEN if body_hidden is None else body_hidden)
+    return {"body_features": features, "body_hidden": hidden}
+
+
 def build(problem: str, name: str, history: int = 10, num_heuristics: int = 10, num_actions: int = 9,
-          state_channels: int = 2) -> nn.Module:
+          state_channels: int = 2, body_features: Sequence[int] | None = None,
+          body_hidden: int | None = None) -> nn.Module:
     """The flax module of network ``name`` of ``problem``.
 
     A DCG network that reads history planes needs ``history >= 1`` (section 5.5.2: ``k = 10``); VNN and the DCP's
     networks ignore it. ENN and EQN combine ``num_heuristics`` heuristics (section 4.4.3). A DCG network reads
     ``state_channels`` state planes before the history (2; 3 for the ``"general"`` observation's budget plane).
+    ``body_features`` (filter counts) and ``body_hidden`` (units) size the convolutional body of ENN, EQN and the CNN
+    (``None``: the thesis' ``(32, 16)`` and 256; beyond the thesis, :func:`body_options`); another network has no
+    such body and refuses them.
     """
     e = entry(problem, name)
+    sized = body_options(problem, name, body_features, body_hidden)
     if problem == "dcg" and state_channels not in (2, 3):
         raise ValueError(f"state_channels must be 2 (thesis) or 3 (general observation), got {state_channels!r}")
     extra = {} if state_channels == 2 else {"state_channels": state_channels}
@@ -103,8 +131,8 @@ def build(problem: str, name: str, history: int = 10, num_heuristics: int = 10, 
     if problem == "dcg":
         return e.cls(num_actions, **extra)
     if issubclass(e.cls, HeuristicNet):  # ENN, EQN
-        return e.cls(num_heuristics, num_actions)
-    return e.cls(num_actions)
+        return e.cls(num_heuristics, num_actions, **sized)
+    return e.cls(num_actions, **sized)
 
 
 def build_critic(algo: str) -> nn.Module | None:

@@ -26,7 +26,8 @@ from jaxdc.dcp import env as dcp_env
 from jaxdc.dcp import instances, learned, navigators
 from jaxdc.dcp.evaluate import summarize
 from jaxdc.metadata import FORMAT, check_run, recorded_pair, run_settings
-from jaxdc.nets import DCP_NETS, NSTEP_Q, build
+from jaxdc.nets import DCP_NETS, NSTEP_Q
+from jaxdc.nets.registry import body_options
 from jaxdc.training.instances import check_instance_settings, instance_metadata, training_params
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
 from jaxdc.training.warm_start import check_init_from, check_same_setting, init_metadata
@@ -63,6 +64,9 @@ class DCPSettings:
       init_from: ``None`` (a fresh initialisation, as the thesis) or a trained actor-critic of the run's network,
         grid size and observation -- a shipped name, a ``.msgpack`` or a ``train.dcp`` run folder -- whose
         parameters start the run (a warm start, beyond the thesis: :func:`start_params`). Not for EQN.
+      body_features, body_hidden: the filter counts of the convolutional layers and the hidden units of the body of
+        ENN, EQN or the CNN (``None``: the thesis' ``(32, 16)`` and 256, section 4.5; beyond the thesis, a wider
+        body for a network that plays many maps and budgets: :func:`jaxdc.nets.registry.body_options`).
     """
 
     net: str
@@ -83,6 +87,8 @@ class DCPSettings:
     init_fraction: float = 0.5
     init_from: str | None = None
     energy_tilt: float = 0.0
+    body_features: tuple[int, ...] | None = None
+    body_hidden: int | None = None
 
     @property
     def per_episode(self) -> bool:
@@ -96,6 +102,9 @@ class DCPSettings:
         if not isinstance(self.config, want):
             raise TypeError(f"net {self.net!r} trains with a {want.__name__}, got {type(self.config).__name__}")
         check_instance_settings(self)
+        sized = body_options("dcp", self.net, self.body_features, self.body_hidden)
+        if self.body_features is not None:  # as a tuple of ints (a list or numpy ints read from a file)
+            object.__setattr__(self, "body_features", sized["body_features"])
         check_init_from(self.init_from)
         if self.init_from is not None and self.uses_q_learning:
             raise ValueError(f"init_from={self.init_from!r}: a warm start applies to the actor-critics (A2C); "
@@ -105,6 +114,12 @@ class DCPSettings:
     def uses_q_learning(self) -> bool:
         """Whether the network trains with n-step Q-learning (EQN) rather than A2C."""
         return DCP_NETS[self.net].algorithm == NSTEP_Q
+
+    def body(self) -> dict[str, Any]:
+        """The body fields (``body_features``, ``body_hidden``) that are set: the metadata records them, and they
+        are keyword arguments of :func:`jaxdc.nets.registry.build`."""
+        return {k: v for k, v in (("body_features", self.body_features), ("body_hidden", self.body_hidden))
+                if v is not None}
 
 
 def start_params(s: DCPSettings) -> tuple[Any, str] | None:
@@ -132,6 +147,7 @@ def run_metadata(s: DCPSettings, seeds: Iterable[int], init_sha256: str | None =
         **({"seeds": seeds} if len(seeds) > 1 else {"seed": seeds[0]}),
         "algorithm": dataclasses.asdict(s.config),
         **instance_metadata(s),
+        **{k: list(v) if isinstance(v, tuple) else v for k, v in s.body().items()},
         **init_metadata(s.init_from, init_sha256),
     }
 
@@ -143,11 +159,14 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCPSettings, tuple
     meta = check_run(meta, "dcp", where)
     energy = recorded_pair(meta.get("energy", list(DCPSettings.energy)), "energy", where, " [initial, maximum]")
     setting = {k: meta[k] for k in ("risk", "grid_size", "total_reward", "min_total_reward", "max_steps",
-                                    "observation", "risk_maps", "init_fraction", "init_from", "energy_tilt")
+                                    "observation", "risk_maps", "init_fraction", "init_from", "energy_tilt",
+                                    "body_hidden")
                if meta.get(k) is not None}
     for k in ("map_seeds", "energy_range"):  # pairs, stored as lists
         if meta.get(k) is not None:
             setting[k] = recorded_pair(meta[k], k, where)
+    if meta.get("body_features") is not None:  # checked by DCPSettings (a ValueError naming where)
+        setting["body_features"] = meta["body_features"]
     return run_settings(DCPSettings, meta, where, energy=energy, **setting)
 
 
@@ -161,7 +180,7 @@ class DCPRun(TrainingRun):
         meta = run_metadata(s, control.seeds, sha)
         self.claim(control, meta)  # lock the folder, check a resume: before the build
         algo = nstep_q if s.uses_q_learning else a2c
-        self.net = build("dcp", s.net)
+        self.net = learned.make_network(s.net, s.body())
         self.env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward,
                                min_total_reward=s.min_total_reward, observation=s.observation)
         if s.per_episode:

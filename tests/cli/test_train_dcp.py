@@ -198,3 +198,30 @@ def test_config_json_of_a_run_retrains_it_exactly(finished_run, tmp_path):
     for x, y in zip(jax.tree_util.tree_leaves(_restore(finished_run).params),
                     jax.tree_util.tree_leaves(_restore(out).params)):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+
+
+def test_a_wider_body_is_recorded_and_retrained_by_config(finished_run, tmp_path, capsys):
+    """``--body-features``/``--body-hidden`` (beyond the thesis) reach the network and the run's config.json;
+    ``--config RUN`` trains the same parameters again, and the loader rebuilds the body from the metadata. A body
+    on the linear learner, which has none, is a usage error naming the field."""
+    import json
+
+    from jaxdc.dcp import learned
+
+    argv = [*TINY, "--net", "enn", "--steps", "2048", "--body-features", "8", "4", "--body-hidden", "16"]
+    first, again = str(tmp_path / "wide"), str(tmp_path / "again")
+    assert cli.main([*argv, "--out", first]) == 0
+    meta = json.load(open(os.path.join(first, "config.json")))
+    assert meta["body_features"] == [8, 4] and meta["body_hidden"] == 16
+    assert cli.main(["--config", first, "--eval-every", "2048", "--eval-episodes", "20", "--no-progress",
+                     "--out", again]) == 0
+    nets = [learned.load(run) for run in (first, again)]
+    assert nets[0].net.body_features == (8, 4) and nets[0].net.body_hidden == 16
+    assert nets[0].params["params"]["body"]["Dense_0"]["kernel"].shape == (4 * 4 * 4, 16)
+    for x, y in zip(jax.tree_util.tree_leaves(nets[0].params), jax.tree_util.tree_leaves(nets[1].params)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    thesis = json.load(open(os.path.join(finished_run, "config.json")))
+    assert not {"body_features", "body_hidden"} & set(thesis)  # old runs' files unchanged
+    capsys.readouterr()  # the runs' reports
+    _fails(capsys, [*TINY, "--body-hidden", "16", "--out", str(tmp_path / "linear")],
+           "body_hidden=16: network 'linear' has no convolutional body")

@@ -29,6 +29,10 @@ def _copy(tmp_path, **changes):
     ({"env_start": "moon"}, "env", "env.start"),
     ({"env": []}, "env", "JSON object"),
     ({"init_fraction": 2.0}, "init_fraction", "<= 1"),
+    ({"body_features": 64}, "body_features", "list"),
+    ({"body_features": [64, 0]}, "body_features", "in [1, 4096], got 0"),
+    ({"body_features": [64, 1.5]}, "body_features", "int"),
+    ({"body_hidden": 10**6}, "body_hidden", "4096"),
 ])
 def test_bad_sidecar_setting_names_the_file_and_key(tmp_path, changes, key, words):
     assert_refused_naming_file_and_key(learned_lib.load, _copy(tmp_path, **changes), key, words)
@@ -38,6 +42,15 @@ def test_energy_above_the_maximum_names_the_file(tmp_path):
     blob = _copy(tmp_path, energy=[16, 8])
     with pytest.raises(ValueError, match=r"net\.json: its setting does not build the environment: initial energy"):
         learned_lib.load(blob)
+
+
+def test_a_body_the_network_cannot_build_names_the_file(tmp_path):
+    """Seven layers pass the key's type check but not the network's bounds; the parameters of a thesis-sized ENN
+    do not fit a recorded wider body."""
+    with pytest.raises(ValueError, match=r"net\.json: its network does not build: body_features must hold 1..6"):
+        learned_lib.load(_copy(tmp_path, body_features=[8] * 7))
+    with pytest.raises(ValueError, match="net.msgpack"):
+        learned_lib.load(_copy(tmp_path, body_features=[64, 64, 32], body_hidden=512))
 
 
 def test_shipped_sidecars_pass():

@@ -106,3 +106,40 @@ def test_every_network_declares_the_trainer_contract():
         assert isinstance(net.aux_params, tuple) and isinstance(net.num_actions, int)
     with pytest.raises(TypeError, match="lacks"):
         check_network(object())
+
+
+def test_a_wider_body_is_an_option_and_the_default_is_the_thesis_body():
+    """``build(..., body_features, body_hidden)`` (beyond the thesis) sizes ENN's, EQN's and the CNN's body; unset, the
+    parameters are exactly those of section 4.5."""
+    from jaxdc.nets import build
+
+    obs, heur = _inputs()
+    for name in ("enn", "eqn", "cnn"):
+        net = build("dcp", name, body_features=(8, 8, 4), body_hidden=24)
+        wide = net.init(jax.random.PRNGKey(0), obs, heur)["params"]
+        assert wide["body"]["Conv_2"]["kernel"].shape == (3, 3, 8, 4), name
+        assert wide["body"]["Dense_0"]["kernel"].shape == (N * N * 4, 24), name
+        plain = jax.tree_util.tree_map(jnp.shape, build("dcp", name).init(jax.random.PRNGKey(0), obs, heur))
+        thesis = build("dcp", name, body_features=(32, 16), body_hidden=256).init(jax.random.PRNGKey(0), obs, heur)
+        assert plain == jax.tree_util.tree_map(jnp.shape, thesis), name
+    only_hidden = build("dcp", "enn", body_hidden=64).init(jax.random.PRNGKey(0), obs, heur)["params"]["body"]
+    assert only_hidden["Conv_1"]["kernel"].shape == (3, 3, 32, 16) and only_hidden["Dense_0"]["kernel"].shape[1] == 64
+
+
+@pytest.mark.parametrize(("name", "features", "hidden", "error", "match"), [
+    ("linear", None, 64, ValueError, "body_hidden=64: network 'linear' has no convolutional body"),
+    ("vnn", (8,), None, ValueError, "network 'vnn' has no convolutional body"),
+    ("enn", (), None, ValueError, r"body_features must hold 1..6 filter counts, got 0"),
+    ("enn", (1,) * 7, None, ValueError, r"body_features must hold 1..6 filter counts, got 7"),
+    ("enn", (8, 0), None, ValueError, r"body_features\[1\] must be in \[1, 4096\], got 0"),
+    ("enn", (8, 2.5), None, TypeError, r"body_features\[1\] must be an int"),
+    ("enn", "64", None, TypeError, "body_features must be a sequence"),
+    ("enn", None, 5000, ValueError, r"body_hidden must be in \[1, 4096\], got 5000"),
+    ("enn", None, True, TypeError, "body_hidden must be an int"),
+])
+def test_a_bad_body_is_refused_by_name(name, features, hidden, error, match):
+    from jaxdc.nets import build
+
+    problem = "dcg" if name == "vnn" else "dcp"
+    with pytest.raises(error, match=match):
+        build(problem, name, body_features=features, body_hidden=hidden)
