@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 import sys
 
-from jaxdc.cli.runner import EXIT_USAGE, exit_process, run
+from jaxdc.cli.runner import EXIT_USAGE, guard_process, run
 
 #: (group, program) -> the module whose ``main(argv)`` runs it, and what it does.
 PROGRAMS = {
@@ -46,8 +46,8 @@ def main(argv=None) -> int:
 
 
 def console() -> None:
-    """The ``jaxdc`` console script."""
-    exit_process(main())
+    """The ``jaxdc`` console script (under the watchdog of :func:`jaxdc.cli.runner.stop_after_signal`)."""
+    guard_process("jaxdc", main)
 
 
 if __name__ == "__main__":

@@ -21,6 +21,16 @@ line on stderr at most every ``JAXDC_PROGRESS_EVERY`` seconds (default 60;
 interruption it flushes and leaves with ``os._exit``, because the interpreter's
 normal shutdown can crash while JAX's runtime threads are still busy.
 
+Python runs a signal's handler only between two bytecodes of the main thread, so
+a Ctrl-C or SIGTERM that arrives during one long compiled call (a batched
+evaluation of millions of steps) would wait for the call to return, minutes
+later. :func:`entry` therefore starts a watchdog (:func:`stop_after_signal`):
+if the main thread has not ended the process ``JAXDC_INTERRUPT_GRACE`` seconds
+(default :data:`INTERRUPT_GRACE`) after the signal, the watchdog ends it with
+the same status and line. Nothing is left half-written: every result file is
+written atomically and a training run resumes from its last checkpoint, as
+after a SIGKILL.
+
 :func:`command_line` is the one way a program records its own command line
 (in its results files and metadata); :func:`with_subcommand` gives a program
 with subcommands its default one when a command line names none.
@@ -44,6 +54,9 @@ EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 130, 143
 PROGRESS_EVERY = 60.0
 #: A step cap above this allows games long enough to want progress lines (the defaults are 100 and 1,000).
 LONG_GAME_STEPS = 100_000
+#: Seconds the main thread gets to end the process after Ctrl-C or SIGTERM before the watchdog of :func:`entry`
+#: ends it (``JAXDC_INTERRUPT_GRACE`` overrides).
+INTERRUPT_GRACE = 5.0
 
 
 class Terminated(KeyboardInterrupt):
@@ -72,18 +85,71 @@ def with_subcommand(argv: Sequence[str] | None, subcommands: Sequence[str], defa
     return argv if argv and argv[0] in subcommands else [default, *argv]
 
 
+def _seconds_from_env(name: str, default: float) -> float:
+    """The environment variable ``name`` as seconds (a finite number >= 0), or ``default`` when it is unset or
+    empty; anything else is a ``ValueError`` naming the variable and the value."""
+    raw = os.environ.get(name)
+    if raw is None or raw == "":
+        return default
+    try:
+        seconds = float(raw)
+    except ValueError:
+        seconds = float("nan")
+    if not seconds >= 0.0 or seconds == float("inf"):
+        raise ValueError(f"{name} must be a finite number of seconds >= 0, got {raw!r}")
+    return seconds
+
+
 def progress_every() -> float:
     """``JAXDC_PROGRESS_EVERY`` (seconds, a finite number >= 0) or :data:`PROGRESS_EVERY`; refused by name."""
-    raw = os.environ.get("JAXDC_PROGRESS_EVERY")
-    if raw is None or raw == "":
-        return PROGRESS_EVERY
-    try:
-        every = float(raw)
-    except ValueError:
-        every = float("nan")
-    if not every >= 0.0 or every == float("inf"):
-        raise ValueError(f"JAXDC_PROGRESS_EVERY must be a finite number of seconds >= 0, got {raw!r}")
-    return every
+    return _seconds_from_env("JAXDC_PROGRESS_EVERY", PROGRESS_EVERY)
+
+
+def interrupt_grace() -> float:
+    """``JAXDC_INTERRUPT_GRACE`` (seconds, a finite number >= 0) or :data:`INTERRUPT_GRACE`; refused by name."""
+    return _seconds_from_env("JAXDC_INTERRUPT_GRACE", INTERRUPT_GRACE)
+
+
+def stop_after_signal(prog: str, grace: float) -> Callable[[], None]:
+    """Start the watchdog of an entry point; the function that stops it again.
+
+    The C-level signal handler writes each signal it catches into a pipe (``signal.set_wakeup_fd``) at once, even
+    while the main thread is inside a compiled call. A daemon thread reads the pipe; ``grace`` seconds after a
+    Ctrl-C or SIGTERM it writes ``<prog>: interrupted`` / ``terminated`` and ends the process with
+    :data:`EXIT_INTERRUPTED` / :data:`EXIT_TERMINATED` -- unless the main thread's own handling (:func:`run`,
+    :func:`exit_process`) has ended it first, as it does whenever it is running Python. Only the main thread can
+    own the wakeup descriptor; elsewhere nothing is started.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    read_end, write_end = os.pipe()
+    os.set_blocking(write_end, False)
+    previous = signal.set_wakeup_fd(write_end, warn_on_full_buffer=False)
+
+    def watch() -> None:
+        while True:
+            try:
+                caught = os.read(read_end, 64)
+            except OSError:  # closed by stop()
+                return
+            if not caught:
+                return
+            if signal.SIGTERM in caught or signal.SIGINT in caught:
+                time.sleep(grace)
+                terminated = signal.SIGTERM in caught
+                print(f"{prog}: {'terminated' if terminated else 'interrupted'} (by the watchdog, {grace:g} s "
+                      "after the signal: a compiled call was still running)", file=sys.stderr, flush=True)
+                sys.stdout.flush()
+                os._exit(EXIT_TERMINATED if terminated else EXIT_INTERRUPTED)
+
+    threading.Thread(target=watch, name="jaxdc-signal-watchdog", daemon=True).start()
+
+    def stop() -> None:
+        signal.set_wakeup_fd(previous)
+        os.close(write_end)
+        os.close(read_end)
+
+    return stop
 
 
 def progress_printer(prog: str, every: float, stream: TextIO | None = None,
@@ -148,12 +214,25 @@ def exit_process(status: int):
     sys.exit(status)
 
 
+def guard_process(prog: str, status: Callable[[], int]) -> None:
+    """End the process with ``status()``, run under the watchdog of :func:`stop_after_signal` (``grace`` from
+    ``JAXDC_INTERRUPT_GRACE``, refused by name as a usage error): how an entry point or the console script ends."""
+    try:
+        grace = interrupt_grace()
+    except ValueError as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        exit_process(EXIT_USAGE)
+    stop_after_signal(prog, grace)  # for the life of the process: it ends in exit_process
+    exit_process(status())
+
+
 def entry(module: str, prog: str) -> None:
     """A ``python -m`` entry point: import ``module`` and run its ``main`` under :func:`run`, then exit.
 
     The import is inside the interruption handling too, so a Ctrl-C while the libraries load also
-    exits 130 with one line.
+    exits 130 with one line; the watchdog of :func:`stop_after_signal` ends the process if the main thread is
+    inside a long compiled call when the signal comes.
     """
     import importlib
 
-    exit_process(run(lambda argv: importlib.import_module(module).main(argv), prog))
+    guard_process(prog, lambda: run(lambda argv: importlib.import_module(module).main(argv), prog))

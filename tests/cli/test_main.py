@@ -1,8 +1,12 @@
 """jaxdc.cli.main: the `jaxdc <group> <program>` command dispatches to each program."""
 
+import subprocess
+import sys
+
 import pytest
 
 from jaxdc.cli import main as jaxdc_main
+from tests.support.cli_checks import ROOT
 
 
 def test_help_lists_every_program(capsys):
@@ -95,3 +99,37 @@ def test_progress_lines_come_at_most_every_interval():
         "prog: evaluating: 4 of 10,000 episodes finished after 121,000 steps (2.0 min)",
         "prog: evaluating: 5 of 10,000 episodes finished after 300,000 steps (5.0 min)",
     ]
+
+
+@pytest.mark.parametrize(("sig", "status", "word"), [("SIGTERM", 143, "terminated"), ("SIGINT", 130, "interrupted")])
+def test_a_signal_during_a_long_compiled_call_ends_the_process_after_the_grace(sig, status, word):
+    """Python runs a handler only between bytecodes, so a signal that comes inside one long XLA call would wait
+    for it (minutes); the entry point's watchdog ends the process ``JAXDC_INTERRUPT_GRACE`` seconds after it."""
+    import signal
+    import time
+
+    from tests.support.cli_checks import checkout_env, cli_process
+
+    with cli_process(["tests.support.spin"], env={**checkout_env(), "JAXDC_INTERRUPT_GRACE": "1"},
+                     stdout=subprocess.PIPE) as proc:
+        assert proc.stdout.readline().strip() == "ready", proc.stderr
+        time.sleep(0.5)  # inside the long call now
+        sent = time.monotonic()
+        proc.send_signal(getattr(signal, sig))
+        _, err = proc.communicate(timeout=60)
+        took = time.monotonic() - sent
+    assert proc.returncode == status, err
+    assert err.strip().splitlines() == [f"spin: {word} (by the watchdog, 1 s after the signal: a compiled call was "
+                                        "still running)"], err
+    assert 1.0 <= took < 30.0, took  # the loop itself runs for minutes
+
+
+def test_a_bad_interrupt_grace_is_a_usage_error_naming_it():
+    from tests.support.cli_checks import checkout_env
+
+    env = {**checkout_env(), "JAXDC_INTERRUPT_GRACE": "soon"}
+    done = subprocess.run([sys.executable, "-m", "eval.dcp", "--help"], env=env, capture_output=True, text=True,
+                          cwd=ROOT, timeout=120)
+    assert done.returncode == 2, done
+    assert done.stderr.strip() == ("python -m eval.dcp: error: JAXDC_INTERRUPT_GRACE must be a finite number of "
+                                   "seconds >= 0, got 'soon'")
