@@ -128,11 +128,9 @@ def stop_after_signal(prog: str, grace: float) -> Callable[[], None]:
 
     def watch() -> None:
         while True:
-            try:
-                caught = os.read(read_end, 64)
-            except OSError:  # closed by stop()
-                return
-            if not caught:
+            caught = os.read(read_end, 64)
+            if not caught:  # stop() closed the write end
+                os.close(read_end)
                 return
             if signal.SIGTERM in caught or signal.SIGINT in caught:
                 time.sleep(grace)
@@ -144,10 +142,9 @@ def stop_after_signal(prog: str, grace: float) -> Callable[[], None]:
 
     threading.Thread(target=watch, name="jaxdc-signal-watchdog", daemon=True).start()
 
-    def stop() -> None:
+    def stop() -> None:  # the reader sees the end of the pipe and closes its side
         signal.set_wakeup_fd(previous)
         os.close(write_end)
-        os.close(read_end)
 
     return stop
 

@@ -27,15 +27,14 @@ def check_body(body_features: Any, body_hidden: Any) -> tuple[tuple[int, ...], i
     """``(body_features, body_hidden)``, the ``features`` and ``hidden`` of a :class:`ConvBody`, as ``(tuple of
     ints, int)``: 1..:data:`MAX_CONV_LAYERS` filter counts and a hidden width, each in ``1..MAX_WIDTH``; else a
     ``TypeError``/``ValueError`` naming the parameter."""
-    features, hidden = body_features, body_hidden
-    fname, hname = "body_features", "body_hidden"
-    if isinstance(features, (str, bytes)) or not isinstance(features, Sequence):
-        raise TypeError(f"{fname} must be a sequence of 1..{MAX_CONV_LAYERS} filter counts, got {features!r}")
-    if not 1 <= len(features) <= MAX_CONV_LAYERS:
-        raise ValueError(f"{fname} must hold 1..{MAX_CONV_LAYERS} filter counts, got {len(features)}: "
-                         f"{list(features)!r}")
-    checked = tuple(check_int(f"{fname}[{i}]", f, 1, MAX_WIDTH) for i, f in enumerate(features))
-    return checked, check_int(hname, hidden, 1, MAX_WIDTH)
+    if isinstance(body_features, (str, bytes)) or not isinstance(body_features, Sequence):
+        raise TypeError(f"body_features must be a sequence of 1..{MAX_CONV_LAYERS} filter counts, "
+                        f"got {body_features!r}")
+    if not 1 <= len(body_features) <= MAX_CONV_LAYERS:
+        raise ValueError(f"body_features must hold 1..{MAX_CONV_LAYERS} filter counts, got {len(body_features)}: "
+                         f"{list(body_features)!r}")
+    features = tuple(check_int(f"body_features[{i}]", f, 1, MAX_WIDTH) for i, f in enumerate(body_features))
+    return features, check_int("body_hidden", body_hidden, 1, MAX_WIDTH)
 
 
 class ConvBody(nn.Module):

@@ -133,3 +133,27 @@ def test_a_bad_interrupt_grace_is_a_usage_error_naming_it():
     assert done.returncode == 2, done
     assert done.stderr.strip() == ("python -m eval.dcp: error: JAXDC_INTERRUPT_GRACE must be a finite number of "
                                    "seconds >= 0, got 'soon'")
+
+
+def test_the_watchdog_stops_and_gives_the_wakeup_descriptor_back():
+    """``stop_after_signal``'s stop function restores the previous wakeup descriptor and ends the thread."""
+    import signal
+    import threading
+    import time
+
+    from jaxdc.cli.runner import stop_after_signal
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signal.set_wakeup_fd needs the main thread")
+    before = signal.set_wakeup_fd(-1)
+    signal.set_wakeup_fd(before)
+    stop = stop_after_signal("prog", 60.0)
+    ours = signal.set_wakeup_fd(-1)
+    signal.set_wakeup_fd(ours, warn_on_full_buffer=False)
+    assert ours not in (-1, before)  # the watchdog's pipe, while it runs
+    stop()
+    assert signal.set_wakeup_fd(before) == before
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline and any(t.name == "jaxdc-signal-watchdog" for t in threading.enumerate()):
+        time.sleep(0.05)
+    assert not any(t.name == "jaxdc-signal-watchdog" for t in threading.enumerate())
