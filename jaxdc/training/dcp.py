@@ -103,8 +103,9 @@ class DCPSettings:
             raise TypeError(f"net {self.net!r} trains with a {want.__name__}, got {type(self.config).__name__}")
         check_instance_settings(self)
         sized = body_options("dcp", self.net, self.body_features, self.body_hidden)
-        if self.body_features is not None:  # as a tuple of ints (a list or numpy ints read from a file)
-            object.__setattr__(self, "body_features", sized["body_features"])
+        for k in learned.BODY_KEYS:  # the set ones as plain ints (a list or numpy ints read from a file)
+            if getattr(self, k) is not None:
+                object.__setattr__(self, k, sized[k])
         check_init_from(self.init_from)
         if self.init_from is not None and self.uses_q_learning:
             raise ValueError(f"init_from={self.init_from!r}: a warm start applies to the actor-critics (A2C); "
@@ -118,8 +119,7 @@ class DCPSettings:
     def body(self) -> dict[str, Any]:
         """The body fields (``body_features``, ``body_hidden``) that are set: the metadata records them, and they
         are keyword arguments of :func:`jaxdc.nets.registry.build`."""
-        return {k: v for k, v in (("body_features", self.body_features), ("body_hidden", self.body_hidden))
-                if v is not None}
+        return {k: getattr(self, k) for k in learned.BODY_KEYS if getattr(self, k) is not None}
 
 
 def start_params(s: DCPSettings) -> tuple[Any, str] | None:
@@ -160,13 +160,11 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCPSettings, tuple
     energy = recorded_pair(meta.get("energy", list(DCPSettings.energy)), "energy", where, " [initial, maximum]")
     setting = {k: meta[k] for k in ("risk", "grid_size", "total_reward", "min_total_reward", "max_steps",
                                     "observation", "risk_maps", "init_fraction", "init_from", "energy_tilt",
-                                    "body_hidden")
+                                    *learned.BODY_KEYS)  # the body's list is checked by DCPSettings
                if meta.get(k) is not None}
     for k in ("map_seeds", "energy_range"):  # pairs, stored as lists
         if meta.get(k) is not None:
             setting[k] = recorded_pair(meta[k], k, where)
-    if meta.get("body_features") is not None:  # checked by DCPSettings (a ValueError naming where)
-        setting["body_features"] = meta["body_features"]
     return run_settings(DCPSettings, meta, where, energy=energy, **setting)
 
 
