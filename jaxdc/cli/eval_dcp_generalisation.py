@@ -9,9 +9,10 @@ The grid (:mod:`jaxdc.dcp.analysis.generalisation`): maps of the network's
 training set, held-out generated maps (seeds no training run may use) and the
 thesis' three maps, each with every budget of ``--budgets``. Each setting
 plays the network, the four navigators (the best is the yardstick), the
-network with one item against the exact optimum (``--no-optimum`` skips it)
-and the shipped specialist of that setting where there is one, all on the
-same episode keys. Writes ``generalisation.json``, ``generalisation.md``,
+network with one item against the exact optimum (``--no-optimum`` skips it),
+the shipped specialist of that setting where there is one and, with ``--bound``,
+the unlimited-energy bound of every policy (:mod:`jaxdc.dcp.exact.unlimited`),
+all on the same episode keys. Writes ``generalisation.json``, ``generalisation.md``,
 ``generalisation_ratio.png`` (network / best navigator, map x budget; budgets
 inside the training range are starred) and, with the optimum,
 ``generalisation_one_item.png`` into ``--out`` (default
@@ -31,6 +32,7 @@ from jaxdc.core.generators import GENERATORS
 from jaxdc.core.validate import value_text
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.analysis import generalisation as gen
+from jaxdc.dcp.exact.unlimited import MAX_ITEM_CELLS
 from jaxdc.io import atomic_write_set, check_output_folder, enable_compilation_cache, json_text
 from jaxdc.provenance import provenance
 
@@ -58,6 +60,10 @@ def add_parser(sub, prog: str) -> argparse.ArgumentParser:
     p.add_argument("--greedy", action="store_true", help="play the network's argmax instead of sampling")
     p.add_argument("--no-optimum", action="store_true", help="skip the one-item rows against the exact optimum")
     p.add_argument("--no-specialist", action="store_true", help="skip the shipped specialists")
+    p.add_argument("--bound", action="store_true",
+                   help="also the unlimited-energy bound of every policy on the same episodes, and its ratio to the "
+                        f"best navigator (the most any policy could gain there); needs --total-reward <= "
+                        f"{MAX_ITEM_CELLS}")
     p.add_argument("--no-thesis", action="store_true",
                    help="skip the network in each thesis table's setting against that table's ENN")
     p.add_argument("--thesis-episodes", type=positive_int("--thesis-episodes"), default=10_000,
@@ -97,6 +103,9 @@ def specialist_finder(total_reward: int):
 def main(args: argparse.Namespace, prog: str, argv=None) -> int:
     """Run the grid of the parsed ``args``; exit status 0."""
     pairs = budgets(args.budgets)
+    if args.bound and args.total_reward > MAX_ITEM_CELLS:
+        raise ValueError(f"--bound needs --total-reward <= {MAX_ITEM_CELLS} (the exact tour search holds 2**cells "
+                         f"values per episode), got {args.total_reward}")
     out = check_output_folder(args.out, "--out", files=OUTPUT_FILES,
                               inputs={"--checkpoint": pretrained.read_paths(args.checkpoint, "dcp")})
     learned = learned_lib.load(args.checkpoint, net="enn")
@@ -107,11 +116,12 @@ def main(args: argparse.Namespace, prog: str, argv=None) -> int:
 
     def progress(i, n, row):
         print(f"[{i}/{n}] {row['source']} {row['map']} {row['energy'][0]:g}/{row['energy'][1]:g}: "
-              f"net {row['net']['mean']:.2f}, {row['best_navigator']['name']} {row['best_navigator']['mean']:.2f}",
-              file=sys.stderr, flush=True)
+              f"net {row['net']['mean']:.2f}, {row['best_navigator']['name']} {row['best_navigator']['mean']:.2f}"
+              + (f", bound {row['bound']['mean']:.2f}" if "bound" in row else ""), file=sys.stderr, flush=True)
 
     rows = gen.run(learned, grid, args.total_reward, args.episodes, args.seed, not args.no_optimum,
-                   None if args.no_specialist else specialist_finder(args.total_reward), args.greedy, progress)
+                   None if args.no_specialist else specialist_finder(args.total_reward), args.greedy, progress,
+                   args.bound)
     thesis = [] if args.no_thesis else gen.thesis_tables(learned, args.thesis_episodes, args.seed, args.greedy)
     payload = {"network": learned.source, "command": command, "training_range": list(gen.training_range(
         learned.metadata)), "rows": rows, "summary": gen.summarise(rows), "thesis_tables": thesis,

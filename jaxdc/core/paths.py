@@ -106,6 +106,11 @@ def _neighbour_table(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return succ, valid, adj
 
 
+def adjacency(n: int) -> np.ndarray:
+    """``[N*N, N*N]`` bool: the cells one non-stay move apart (Chebyshev distance 1), row-major."""
+    return _neighbour_table(n)[2]
+
+
 def _close(a, b, tie_tol):
     """``a`` and ``b`` (costs, possibly inf) are equal within ``tie_tol * (1 + min)``; NaN-free."""
     lo = jnp.minimum(a, b)

@@ -67,6 +67,16 @@ def _take(tree, index):
     return jax.tree_util.tree_map(lambda x: x[index], tree)
 
 
+def initial_states(env: Environment, params: Any, key: jax.Array, num_episodes: int) -> tuple[Any, Any, jax.Array]:
+    """``(observations, states, step keys)`` at the start of the ``num_episodes`` episodes that
+    :func:`run_episodes` plays with ``key``: episode ``i`` resets from its own key, so an exact yardstick
+    computed on these states (:mod:`jaxdc.dcp.exact.unlimited`) is paired with the evaluation's episodes."""
+    ep_keys = jax.random.split(key, int(num_episodes))
+    reset_keys, run_keys = jnp.split(jax.vmap(lambda k: jax.random.split(k, 2))(ep_keys), 2, axis=1)
+    obs0, state0 = jax.vmap(env.reset_env, in_axes=(0, None))(reset_keys[:, 0], params)
+    return obs0, state0, run_keys[:, 0]
+
+
 def run_episodes(env: Environment, params: Any, policy: Callable, key: jax.Array, num_episodes: int,
                  lanes: int | None = None) -> Any:
     """Play ``num_episodes`` episodes with ``policy``; return their final states, batched ``[num_episodes]``.
@@ -83,10 +93,7 @@ def run_episodes(env: Environment, params: Any, policy: Callable, key: jax.Array
     # every episode's initial state, observation and final state are held at once, plus its two keys
     per_episode = memory.tree_bytes(obs_shape) + 2 * memory.tree_bytes(state_shape) + 32
     memory.check_fits(n * per_episode, f"{n} evaluation episodes", "the number of episodes")
-    ep_keys = jax.random.split(key, n)
-    reset_keys, run_keys = jnp.split(jax.vmap(lambda k: jax.random.split(k, 2))(ep_keys), 2, axis=1)
-    run_keys = run_keys[:, 0]
-    obs0, state0 = jax.vmap(env.reset_env, in_axes=(0, None))(reset_keys[:, 0], params)
+    obs0, state0, run_keys = initial_states(env, params, key, n)
 
     def one(key, obs, state):
         k_act, k_step = jax.random.split(key)

@@ -16,7 +16,10 @@ Algorithm 9 (the best of them is the yardstick); with ``optimum``, the
 network on one item against the exact single-item optimum
 (:mod:`jaxdc.dcp.exact.optimal`, value iteration on that map and budget); and the
 specialist, a shipped network trained in exactly that setting, where one
-exists. :func:`summarise` groups the ratios by source and inside/outside.
+exists; with ``bound``, the unlimited-energy bound of every policy on the same
+episodes (:mod:`jaxdc.dcp.exact.unlimited`, at most 20 items), whose ratio to the
+best navigator is the most any policy could gain over it there (the *ceiling*).
+:func:`summarise` groups the ratios by source and inside/outside.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from jaxdc.dcp import instances
 from jaxdc.dcp.env import DCP
 from jaxdc.dcp.evaluate import evaluate_heuristic, evaluate_learned
 from jaxdc.dcp.exact.optimal import expected_optimum, solve_single_item
+from jaxdc.dcp.exact.unlimited import check_bound_fits, evaluate_bound
 from jaxdc.dcp.navigators import NAVIGATORS
 
 #: The map sources of a generalisation grid, in report order.
@@ -90,8 +94,9 @@ def _mean_se(final) -> tuple[float, float]:
 
 def evaluate_setting(learned, setting: Setting, total_reward: int = 30, episodes: int = 2000, seed: int = 0,
                      optimum: bool = True, specialist: Callable[[Setting], Any] | None = None,
-                     greedy: bool = False) -> dict:
-    """One row of the grid: the network, the best navigator, the single-item optimum and the specialist.
+                     greedy: bool = False, bound: bool = False) -> dict:
+    """One row of the grid: the network, the best navigator, the single-item optimum, the specialist and, with
+    ``bound``, the unlimited-energy bound (``total_reward`` <= 20, else ``ValueError``).
 
     Every policy plays the same episode keys (``seed``). Returns a JSON-able dict.
     """
@@ -99,6 +104,8 @@ def evaluate_setting(learned, setting: Setting, total_reward: int = 30, episodes
     row: dict[str, Any] = {"source": setting.source, "map": setting.map_name, "energy": list(setting.energy),
                            "inside": setting.inside, "total_reward": total_reward, "episodes": episodes}
     env = DCP(grid_size=setting.risk.shape[0], total_reward=total_reward, observation=learned.observation)
+    if bound:
+        check_bound_fits(env)
     params = instances.fixed_instance(env, setting.risk, setting.energy)
     row["net"] = dict(zip(("mean", "se"), _mean_se(evaluate_learned(env, params, learned, key, episodes, greedy))))
     navs = {name: _mean_se(evaluate_heuristic(env, params, name, key, episodes)) for name in NAVIGATORS}
@@ -106,6 +113,11 @@ def evaluate_setting(learned, setting: Setting, total_reward: int = 30, episodes
     row["navigators"] = {n: {"mean": m, "se": se} for n, (m, se) in navs.items()}
     row["best_navigator"] = {"name": best, "mean": navs[best][0], "se": navs[best][1]}
     row["ratio"] = row["net"]["mean"] / navs[best][0] if navs[best][0] > 0 else None
+    if bound:
+        b = evaluate_bound(env, params, key, episodes)
+        row["bound"] = {"mean": b.mean, "se": b.se, "net_share": row["net"]["mean"] / b.mean if b.mean > 0 else None,
+                        "navigator_share": navs[best][0] / b.mean if b.mean > 0 else None,
+                        "ceiling": b.mean / navs[best][0] if navs[best][0] > 0 else None}
     if optimum:
         row["one_item"] = one_item(learned, setting, episodes, seed, greedy)
     if specialist is not None:
@@ -130,7 +142,8 @@ def one_item(learned, setting: Setting, episodes: int = 2000, seed: int = 0, gre
 
 
 def summarise(rows: list[dict]) -> list[dict]:
-    """Mean ratio (network / best navigator) and one-item share by map source and inside/outside."""
+    """Mean ratio (network / best navigator) and one-item share by map source and inside/outside; with the bound,
+    also the mean and smallest ceiling (bound / best navigator) and the network's mean share of the bound."""
     out = []
     for source in SOURCES:
         for inside in (True, False):
@@ -138,20 +151,27 @@ def summarise(rows: list[dict]) -> list[dict]:
             if not sel:
                 continue
             shares = [r["one_item"]["share"] for r in sel if r.get("one_item", {}).get("share") is not None]
-            out.append({"source": source, "budgets": "inside" if inside else "outside", "settings": len(sel),
-                        "ratio_mean": float(np.mean([r["ratio"] for r in sel])),
-                        "ratio_min": float(np.min([r["ratio"] for r in sel])),
-                        "one_item_share_mean": float(np.mean(shares)) if shares else None})
+            entry = {"source": source, "budgets": "inside" if inside else "outside", "settings": len(sel),
+                     "ratio_mean": float(np.mean([r["ratio"] for r in sel])),
+                     "ratio_min": float(np.min([r["ratio"] for r in sel])),
+                     "one_item_share_mean": float(np.mean(shares)) if shares else None}
+            bounds = [r["bound"] for r in sel if (r.get("bound") or {}).get("ceiling") is not None]
+            if bounds:
+                entry.update(ceiling_mean=float(np.mean([b["ceiling"] for b in bounds])),
+                             ceiling_min=float(np.min([b["ceiling"] for b in bounds])),
+                             bound_share_mean=float(np.mean([b["net_share"] for b in bounds])))
+            out.append(entry)
     return out
 
 
 def run(learned, grid: list[Setting], total_reward: int = 30, episodes: int = 2000, seed: int = 0,
         optimum: bool = True, specialist: Callable[[Setting], Any] | None = None, greedy: bool = False,
-        progress: Callable[[int, int, dict], None] | None = None) -> list[dict]:
+        progress: Callable[[int, int, dict], None] | None = None, bound: bool = False) -> list[dict]:
     """:func:`evaluate_setting` over ``grid``; ``progress(i, n, row)`` after each row."""
     rows = []
     for i, setting in enumerate(grid):
-        rows.append(evaluate_setting(learned, setting, total_reward, episodes, seed, optimum, specialist, greedy))
+        rows.append(evaluate_setting(learned, setting, total_reward, episodes, seed, optimum, specialist, greedy,
+                                     bound))
         if progress is not None:
             progress(i + 1, len(grid), rows[-1])
     return rows
@@ -210,23 +230,36 @@ def _f(x: float | None, fmt: str = ".2f") -> str:
 
 
 def markdown(rows: list[dict], command: str, network: str) -> str:
-    """The grid as a markdown page section: every setting, then the summary by source and inside/outside."""
+    """The grid as a markdown page section: every setting, then the summary by source and inside/outside (with
+    the unlimited-energy bound's columns when the rows carry it)."""
+    with_bound = any("bound" in r for r in rows)
+    extra_head, extra_rule = (" bound | net / bound | ceiling |", "---:|---:|---:|") if with_bound else ("", "")
     lines = [f"Network `{network}`; `{command}`", "",
-             "| map | budget | in range | net | best navigator | ratio | specialist | 1 item: net / optimum |",
-             "|---|---|---|---:|---|---:|---:|---:|"]
+             "| map | budget | in range | net | best navigator | ratio | specialist | 1 item: net / optimum |"
+             + extra_head, "|---|---|---|---:|---|---:|---:|---:|" + extra_rule]
     for r in rows:
         spec, one, best = r.get("specialist"), r.get("one_item"), r["best_navigator"]
         spec_text = "-" if spec is None else f"{spec['mean']:.2f}"
         one_text = "-" if one is None else f"{one['net']:.3f} / {one['optimum']:.3f} ({_f(one['share'])})"
+        bound = r.get("bound")
+        extra = "" if not with_bound else (" - | - | - |" if bound is None else
+                                           f" {bound['mean']:.2f} | {_f(bound['net_share'], '.3f')} | "
+                                           f"{_f(bound['ceiling'], '.3f')} |")
         lines.append(
             f"| {r['source']}: {r['map']} | {r['energy'][0]:g}/{r['energy'][1]:g} | {'yes' if r['inside'] else 'no'} "
             f"| {r['net']['mean']:.2f} ± {r['net']['se']:.2f} | {best['name']} {best['mean']:.2f} "
-            f"| {_f(r['ratio'])} | {spec_text} | {one_text} |")
-    lines += ["", "| maps | budgets | settings | ratio mean | ratio min | 1-item share mean |",
-              "|---|---|---:|---:|---:|---:|"]
-    for s in summarise(rows):
+            f"| {_f(r['ratio'])} | {spec_text} | {one_text} |" + extra)
+    summary = summarise(rows)
+    with_ceiling = any("ceiling_mean" in s for s in summary)
+    lines += ["", "| maps | budgets | settings | ratio mean | ratio min | 1-item share mean |"
+              + (" ceiling mean | ceiling min | net / bound mean |" if with_ceiling else ""),
+              "|---|---|---:|---:|---:|---:|" + ("---:|---:|---:|" if with_ceiling else "")]
+    for s in summary:
+        extra = "" if not with_ceiling else (
+            f" {_f(s.get('ceiling_mean'), '.3f')} | {_f(s.get('ceiling_min'), '.3f')} | "
+            f"{_f(s.get('bound_share_mean'), '.3f')} |")
         lines.append(f"| {s['source']} | {s['budgets']} | {s['settings']} | {s['ratio_mean']:.3f} | "
-                     f"{s['ratio_min']:.3f} | {_f(s['one_item_share_mean'], '.3f')} |")
+                     f"{s['ratio_min']:.3f} | {_f(s['one_item_share_mean'], '.3f')} |" + extra)
     return "\n".join(lines) + "\n"
 
 

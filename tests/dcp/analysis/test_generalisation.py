@@ -72,3 +72,31 @@ def test_cli_refuses_odd_budgets(tiny_general_run, tmp_path, capsys):
         eval_dcp.main(["generalisation", "--checkpoint", tiny_general_run, "--budgets", "8", "16", "12",
                        "--out", str(tmp_path / "x")])
     assert e.value.code == 2 and "--budgets takes pairs" in capsys.readouterr().err
+
+
+def test_cli_bound_columns_pair_the_bound_with_the_navigators(tiny_general_run, tmp_path):
+    from jaxdc.cli import eval_dcp
+
+    out = str(tmp_path / "b")
+    rc = eval_dcp.main(["generalisation", "--checkpoint", tiny_general_run, "--maps-per-source", "1", "--no-thesis",
+                        "--no-optimum", "--budgets", "6", "12", "--total-reward", "5", "--episodes", "32", "--bound",
+                        "--out", out])
+    assert rc == 0
+    payload = json.load(open(os.path.join(out, "generalisation.json")))
+    for r in payload["rows"]:
+        b = r["bound"]
+        assert 0 < b["mean"] <= 5 and b["ceiling"] == pytest.approx(b["mean"] / r["best_navigator"]["mean"])
+        assert b["net_share"] == pytest.approx(r["net"]["mean"] / b["mean"])
+    assert all("ceiling_min" in s for s in payload["summary"])
+    text = open(os.path.join(out, "generalisation.md")).read()
+    assert "| net / bound | ceiling |" in text and "ceiling mean" in text
+
+
+def test_cli_refuses_the_bound_with_too_many_items(tiny_general_run, tmp_path, capsys):
+    from jaxdc.cli import eval_dcp
+
+    with pytest.raises(SystemExit) as e:
+        eval_dcp.main(["generalisation", "--checkpoint", tiny_general_run, "--total-reward", "21", "--bound",
+                       "--out", str(tmp_path / "x")])
+    assert e.value.code == 2 and "--bound needs --total-reward <= 20" in capsys.readouterr().err
+    assert not os.path.exists(tmp_path / "x")
