@@ -45,6 +45,7 @@ from typing import Any, NamedTuple
 import jax
 import numpy as np
 
+from jaxdc.core import memory
 from jaxdc.core.paths import adjacency
 from jaxdc.core.rollout import initial_states
 from jaxdc.core.validate import check_positive_int
@@ -93,12 +94,16 @@ def tour_bound(q: np.ndarray, risk: Any, items: Any, start: int) -> float:
     """The unlimited-energy bound of one initial state: ``q`` from :func:`reach_table` of ``risk``, the item
     rewards ``items`` (``[N, N]`` or flat), the agent's flat start cell ``start``."""
     r_all = np.asarray(items, np.float64).reshape(-1)
+    if q.shape != (r_all.size, r_all.size) or not 0 <= int(start) < r_all.size:
+        raise ValueError(f"tour_bound needs q of shape {(r_all.size, r_all.size)} (reach_table of the map) and a "
+                         f"start cell in [0, {r_all.size}), got {q.shape} and {start!r}")
     cells = np.flatnonzero(r_all > 0)
     m = len(cells)
     if m == 0:
         return 0.0
     if m > MAX_ITEM_CELLS:
         raise ValueError(f"the unlimited-energy bound takes at most {MAX_ITEM_CELLS} item cells, got {m}")
+    memory.check_fits(8 * m << m, f"the unlimited-energy bound's table of {m} item cells", "the item count")
     r = r_all[cells]
     survive = 1.0 - np.clip(np.asarray(risk, np.float64).reshape(-1)[cells], 0.0, 1.0)
     w = survive[:, None] * q[np.ix_(cells, cells)]  # [u, v]: from item cell u (collected) to v
@@ -120,7 +125,7 @@ def _reach_table_of(risk_bytes: bytes, n: int) -> np.ndarray:
     return reach_table(np.frombuffer(risk_bytes, np.float64).reshape(n, n))
 
 
-@functools.lru_cache(maxsize=1 << 16)
+@functools.lru_cache(maxsize=1 << 15)
 def _episode_bound(risk_bytes: bytes, items_bytes: bytes, start: int, n: int) -> float:
     """:func:`tour_bound` of one initial state, remembered: the budget does not change the bound, so a grid
     of budgets on one map and key solves each episode once."""

@@ -133,3 +133,7 @@ def test_bound_refuses_too_many_item_cells_by_name():
         tour_bound(reach_table(np.zeros((8, 8))), np.zeros((8, 8)), items, 0)
     with pytest.raises(ValueError, match="square"):
         reach_table(np.zeros((2, 3)))
+    with pytest.raises(ValueError, match=r"start cell in \[0, 64\), got \(64, 64\) and 64"):
+        tour_bound(reach_table(np.zeros((8, 8))), np.zeros((8, 8)), np.eye(8), 64)
+    with pytest.raises(ValueError, match=r"q of shape \(16, 16\)"):
+        tour_bound(reach_table(np.zeros((8, 8))), np.zeros((4, 4)), np.eye(4), 0)
