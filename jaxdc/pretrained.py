@@ -381,7 +381,7 @@ def load_trained(path: PathLike, problem: str, nets: Collection[str], restore_ta
             return name, state.params, dict(meta, problem=problem, updates=checkpoint.latest_step(ckpt)), ckpt
         if run_seed not in seeds:
             raise ValueError(f"{source} holds the runs of seeds {seeds}: choose one with run_seed "
-                             f"(eval's --run-seed), got {run_seed}")
+                             f"(eval.dcp's and eval.dcg's --run-seed), got {run_seed}")
         target = jax.tree_util.tree_map(lambda x: jnp.stack([x] * len(seeds)),
                                         restore_target(name, meta, source))
         state, meta = checkpoint.restore(ckpt, target, {"net": name}, upgrade=upgrade)

@@ -124,6 +124,8 @@ def _add_network(p, required=True):
                       help="a train.dcg run folder, an exported .msgpack or a shipped network's name")
     what.add_argument("--net", metavar="NAME", help="a shipped network (jaxdc/assets/dcg/NAME.msgpack), "
                       "e.g. vnn, imnn, emnn, omn_conn")
+    p.add_argument("--run-seed", type=seed("--run-seed"), default=None, metavar="S",
+                   help="--checkpoint of a train.dcg --seeds run: the seed whose network to play")
 
 
 def _add_strategy_set(p, default, default_text):
@@ -268,8 +270,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _load(checkpoint, net):
-    return learned_lib.load(checkpoint) if checkpoint else learned_lib.shipped(net)
+def _load(checkpoint, net, run_seed=None):
+    if run_seed is not None and not checkpoint:
+        raise ValueError(f"--run-seed {run_seed} needs --checkpoint (a train.dcg --seeds run folder)")
+    return learned_lib.load(checkpoint, run_seed=run_seed) if checkpoint else learned_lib.shipped(net)
 
 
 # -- the subcommands ----------------------------------------------------------------------------
@@ -313,7 +317,7 @@ def _evaluate(args, command) -> int:
     s = EvaluateSettings.from_args(args)
     enable_compilation_cache()
     try:
-        learned = _load(s.checkpoint, s.net)
+        learned = _load(s.checkpoint, s.net, s.run_seed)
         team = s.collectors is not None or learned.collectors > 1
         if team and s.reward_area is not None:
             raise ValueError("--reward-area plays the one-collector game of Figs. 5.10-5.12; a team (--collectors, "
@@ -334,6 +338,8 @@ def _evaluate(args, command) -> int:
     except (TypeError, ValueError) as e:
         args.error(str(e))
     r["command"] = command
+    if s.run_seed is not None:
+        r["run_seed"] = s.run_seed
     line = json_text(r, indent=None)  # strict: refused before anything is written
     try:  # the name depends on the setting played, so it is known only now (still before anything is written)
         name = team_result_name(r) if team else result_name(r)
@@ -404,7 +410,7 @@ def _render(args, command) -> int:
         args.error(str(e))
     enable_compilation_cache()
     try:
-        learned = _load(s.checkpoint, s.net)
+        learned = _load(s.checkpoint, s.net, s.run_seed)
         name = learned.net_name if learned.collectors == 1 else f"{source_stem(learned.source)}_k{learned.collectors}"
         for path in _render_paths(s, name):
             check_output_path(path, "--out file", _checkpoint_inputs(args))

@@ -57,11 +57,15 @@ def main(args: argparse.Namespace, command: str) -> int:
     are checked before the games are played."""
     try:
         check_output_folder(args.out, "--out")
-        learned = learned_lib.load(args.checkpoint) if args.checkpoint else learned_lib.shipped(args.net)
+        if args.run_seed is not None and not args.checkpoint:
+            raise ValueError(f"--run-seed {args.run_seed} needs --checkpoint (a train.dcg --seeds run folder)")
+        learned = (learned_lib.load(args.checkpoint, run_seed=args.run_seed) if args.checkpoint
+                   else learned_lib.shipped(args.net))
         given = args.checkpoint or args.net
         mask = learned.mask if args.mask is None else args.mask
         play = ("_greedy" if args.greedy else "") + ("" if mask == "none" else f"_mask-{mask}")
-        stem = os.path.join(args.out, f"energies_{network_label(given)}{play}_s{args.seed}")
+        run = "" if args.run_seed is None else f"_run{args.run_seed}"
+        stem = os.path.join(args.out, f"energies_{network_label(given)}{play}{run}_s{args.seed}")
         check_output_folder(args.out, "--out", files=[os.path.basename(stem) + ext for ext in (".json", ".md")],
                             inputs={"--checkpoint": pretrained.read_paths(args.checkpoint, "dcg")
                                     if args.checkpoint else None})

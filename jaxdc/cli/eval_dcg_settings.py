@@ -43,12 +43,13 @@ class EvaluateSettings:
     out: str
     collectors: int | None = None  # the team game (beyond the thesis); None: the network's own
     mask: str | None = None  # an action mask (beyond the thesis; jaxdc.core.masks.MASKS); None: as trained
+    run_seed: int | None = None  # the seed of a train.dcg --seeds run folder
 
     @classmethod
     def from_args(cls, args) -> "EvaluateSettings":
         return cls(args.checkpoint, args.net, args.energy, _strategy_set(args), args.reward_area, args.max_steps,
                    args.greedy, args.episodes, args.seed, args.rpe_zero, not args.no_bound, args.json, args.out,
-                   args.collectors, args.mask)
+                   args.collectors, args.mask, args.run_seed)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -85,13 +86,14 @@ class RenderSettings:
     cols: int | None
     fps: int
     out: str
+    run_seed: int | None = None  # the seed of a train.dcg --seeds run folder
 
     @classmethod
     def from_args(cls, args) -> "RenderSettings":
         if len(args.strategy) != 1:
             raise ValueError(f"--strategy takes one strategy, got {','.join(args.strategy)}")
         return cls(args.checkpoint, args.net, args.strategy[0], args.seed, args.energy, args.reward_area,
-                   args.max_steps, args.greedy, args.cols, args.fps, args.out)
+                   args.max_steps, args.greedy, args.cols, args.fps, args.out, args.run_seed)
 
 
 @dataclasses.dataclass(frozen=True)

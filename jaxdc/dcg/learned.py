@@ -260,12 +260,13 @@ def _check(name, net, params, meta, source):
                       "was it trained on another grid size or history length?")
 
 
-def load(path: pretrained.PathLike, net: str | None = None) -> Learned:
+def load(path: pretrained.PathLike, net: str | None = None, run_seed: int | None = None) -> Learned:
     """Load a trained DCG network from a parameter file (``.msgpack``) or a ``train.dcg`` run folder.
 
     ``net``, when given, must be the stored network's name (else ``ValueError``;
-    :func:`jaxdc.pretrained.load_trained`). Parameters holding NaN or infinity are refused
-    (:func:`jaxdc.pretrained.check_finite`).
+    :func:`jaxdc.pretrained.load_trained`). ``run_seed`` picks one seed of a ``train.dcg --seeds`` run
+    folder (such a folder without it is refused, naming its seeds). Parameters holding NaN or infinity are
+    refused (:func:`jaxdc.pretrained.check_finite`).
     """
     def target(name: str, meta: dict, source: str) -> Any:
         return train_state_template(make_network(name, meta.get("history", DEFAULT_SETTING["history"]),
@@ -273,7 +274,8 @@ def load(path: pretrained.PathLike, net: str | None = None) -> Learned:
 
     from jaxdc.agents.centralised import actor_params
 
-    name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net, check_setting=check_setting)
+    name, params, meta, source = pretrained.load_trained(path, "dcg", NETS, target, net, run_seed=run_seed,
+                                                         check_setting=check_setting)
     params = actor_params(params)  # a MAPPO run's critic only trains: the actor plays
     module = make_network(name, meta.get("history", DEFAULT_SETTING["history"]), state_channels(meta))
     params = _check(name, module, params, meta, source)

@@ -117,7 +117,7 @@ def test_resume_refuses_another_net(finished_run, capsys):
     _fails(capsys, TINY + ["--out", finished_run], "already holds checkpoints")
 
 
-def test_seeds_run_vmapped_and_seed_0_equals_the_single_run(finished_run, tmp_path):
+def test_seeds_run_vmapped_and_seed_0_equals_the_single_run(finished_run, tmp_path, capsys):
     """--seeds 0,3 (train.common's flag, as in train.dcp): one vmapped run whose seed 0 equals the single run of
     seed 0, one CSV per seed, and the PPO-style learner options accepted on the same run."""
     out = str(tmp_path / "seeds")
@@ -132,6 +132,25 @@ def test_seeds_run_vmapped_and_seed_0_equals_the_single_run(finished_run, tmp_pa
         with open(os.path.join(out, f"metrics-s{seed}.csv")) as f:
             assert [int(r["env_steps"]) for r in csv.DictReader(f)] == [9600, 19200]
     assert run.metadata["seeds"] == [0, 3] and "seed" not in run.metadata
+    # each seed is loaded (learned.load's run_seed) and played (eval.dcg --run-seed) on its own
+    from jaxdc.cli import eval_dcg
+    from jaxdc.dcg import learned as learned_lib
+
+    three = learned_lib.load(out, run_seed=3)
+    for x, y in zip(jax.tree_util.tree_leaves(three.params), jax.tree_util.tree_leaves(multi.params)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y)[1])
+    assert three.metadata["seed"] == 3
+    with pytest.raises(ValueError, match=r"holds the runs of seeds \[0, 3\]: choose one with run_seed"):
+        learned_lib.load(out)
+    results = str(tmp_path / "eval")
+    assert eval_dcg.main(["evaluate", "--checkpoint", out, "--run-seed", "3", "--episodes", "8", "--out", results,
+                          "--no-bound"]) == 0
+    assert os.listdir(results) == ["eval_vnn_e8_restricted_run3_s0.json"]
+    capsys.readouterr()
+    refused(eval_dcg.main, ["evaluate", "--net", "vnn", "--run-seed", "3", "--out", results], capsys,
+            "--run-seed 3 needs --checkpoint")
+    refused(eval_dcg.main, ["evaluate", "--checkpoint", out, "--out", results], capsys,
+            "choose one with run_seed (eval.dcp's and eval.dcg's --run-seed)")
 
 
 def test_ship_refuses_several_seeds(capsys, tmp_path):

@@ -50,7 +50,7 @@ def _strategy_set(strategies) -> str:
 
 def result_name(r: dict) -> str:
     """The file name of an evaluation:
-    ``eval_<net>[_a<alpha>]_e<energy>_<set>[_area<S>][_greedy][_mask-<mask>]_s<seed>.json``."""
+    ``eval_<net>[_a<alpha>]_e<energy>_<set>[_area<S>][_greedy][_mask-<mask>][_run<S>]_s<seed>.json``."""
     s = r["setting"]
     sets = _strategy_set(s["strategies"])
     parts = [f"eval_{r['net']}"]
@@ -63,6 +63,7 @@ def result_name(r: dict) -> str:
         parts.append("greedy")
     if r.get("mask"):
         parts.append(f"mask-{r['mask']}")
+    parts += _run_part(r)
     parts.append(f"s{r['seed']}")
     return "_".join(parts) + ".json"
 
@@ -77,11 +78,16 @@ def source_stem(source: str) -> str:
 
 def team_result_name(r: dict) -> str:
     """The file name of a team evaluation (:func:`jaxdc.dcg.analysis.team.evaluate_learned`):
-    ``team_<net-file>_k<K>_e<energy>_<set>[_greedy]_s<seed>.json``."""
+    ``team_<net-file>_k<K>_e<energy>_<set>[_greedy][_run<S>]_s<seed>.json``."""
     s = r["setting"]
     return "_".join([f"team_{source_stem(r['source'])}", f"k{r['collectors']}", f"e{_setting_text(s['energy'])}",
-                     _strategy_set(s["strategies"])] + (["greedy"] if r["greedy"] else []) + [f"s{r['seed']}"]) \
-        + ".json"
+                     _strategy_set(s["strategies"])] + (["greedy"] if r["greedy"] else []) + _run_part(r)
+                    + [f"s{r['seed']}"]) + ".json"
+
+
+def _run_part(r: dict) -> list[str]:
+    """``["run<S>"]`` for one seed of a ``train.dcg --seeds`` run folder (the seeds share the folder's name)."""
+    return [] if r.get("run_seed") is None else [f"run{r['run_seed']}"]
 
 
 def team_report(r: dict) -> str:
