@@ -98,3 +98,10 @@ def seed_list(name: str):
         return seeds
 
     return parse
+
+
+def check_run_seed(run_seed: int | None, checkpoint: str | None, trainer: str) -> None:
+    """``ValueError`` naming both flags if ``--run-seed`` comes without ``--checkpoint`` (the folder of a
+    ``trainer --seeds`` run, e.g. ``train.dcg``, is where a run seed is picked)."""
+    if run_seed is not None and not checkpoint:
+        raise ValueError(f"--run-seed {run_seed} needs --checkpoint (a {trainer} --seeds run folder)")

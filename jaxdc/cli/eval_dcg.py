@@ -49,7 +49,7 @@ import jax
 from jaxdc import pretrained
 from jaxdc.cli import eval_dcg_energies as energies
 from jaxdc.cli import runner
-from jaxdc.cli.args import integer, positive_float, positive_int, seed
+from jaxdc.cli.args import check_run_seed, integer, positive_float, positive_int, seed
 from jaxdc.cli.eval_dcg_settings import EvaluateSettings, FigureSettings, OptimumSettings, RenderSettings
 from jaxdc.cli.runner import run
 from jaxdc.core.energy import MAX_FINITE_ENERGY
@@ -271,8 +271,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _load(checkpoint, net, run_seed=None):
-    if run_seed is not None and not checkpoint:
-        raise ValueError(f"--run-seed {run_seed} needs --checkpoint (a train.dcg --seeds run folder)")
+    check_run_seed(run_seed, checkpoint, "train.dcg")
     return learned_lib.load(checkpoint, run_seed=run_seed) if checkpoint else learned_lib.shipped(net)
 
 

@@ -12,7 +12,7 @@ import sys
 from typing import Any, Callable
 
 from jaxdc import pretrained
-from jaxdc.cli.args import integer, positive_int, seed
+from jaxdc.cli.args import check_run_seed, integer, positive_int, seed
 from jaxdc.core.energy import MAX_FINITE_ENERGY
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis.energies import energy_markdown, energy_table
@@ -57,8 +57,7 @@ def main(args: argparse.Namespace, command: str) -> int:
     are checked before the games are played."""
     try:
         check_output_folder(args.out, "--out")
-        if args.run_seed is not None and not args.checkpoint:
-            raise ValueError(f"--run-seed {args.run_seed} needs --checkpoint (a train.dcg --seeds run folder)")
+        check_run_seed(args.run_seed, args.checkpoint, "train.dcg")
         learned = (learned_lib.load(args.checkpoint, run_seed=args.run_seed) if args.checkpoint
                    else learned_lib.shipped(args.net))
         given = args.checkpoint or args.net

@@ -56,7 +56,7 @@ import sys
 from jaxdc import pretrained
 from jaxdc.cli import eval_dcp_generalisation as generalisation
 from jaxdc.cli import runner
-from jaxdc.cli.args import integer, positive_float, positive_int, real, seed, unit_interval
+from jaxdc.cli.args import check_run_seed, integer, positive_float, positive_int, real, seed, unit_interval
 from jaxdc.cli.runner import command_line, with_subcommand
 from jaxdc.core import grid
 from jaxdc.core.energy import MAX_FINITE_ENERGY
@@ -193,8 +193,7 @@ def resolve_learned(args, spec: TableSpec | None = None) -> Learned | None:
     a shipped file that is missing leaves the row out (``None``) and says so on
     stderr.
     """
-    if args.run_seed is not None and not args.checkpoint:
-        raise ValueError(f"--run-seed {args.run_seed} needs --checkpoint (a train.dcp --seeds run folder)")
+    check_run_seed(args.run_seed, args.checkpoint, "train.dcp")
     if spec is None:
         if args.policy not in NETS:
             if args.checkpoint:

@@ -287,3 +287,8 @@ def test_dcp_generalisation_over_its_checkpoint_refused(tmp_path, capsys):
     blob = _copy_shipped(tmp_path / "D", "generalisation")
     refused(cli.main, ["generalisation", "--checkpoint", str(blob), "--out", str(tmp_path / "D")], capsys,
             "generalisation.json", "would overwrite the input --checkpoint")
+
+
+def test_run_seed_without_a_checkpoint_refused(capsys):
+    refused(cli.main, ["--policy", "enn", "--run-seed", "2", "--episodes", "4"], capsys,
+            "--run-seed 2 needs --checkpoint (a train.dcp --seeds run folder)")

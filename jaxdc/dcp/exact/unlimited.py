@@ -40,12 +40,13 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 from typing import Any, NamedTuple
 
 import jax
 import numpy as np
 
-from jaxdc.core import memory
+from jaxdc.core import grid, memory
 from jaxdc.core.paths import adjacency
 from jaxdc.core.rollout import initial_states
 from jaxdc.core.validate import check_positive_int
@@ -61,10 +62,10 @@ def reach_table(risk: Any) -> np.ndarray:
     entered strictly between ``u`` and ``v`` on a path of 8-connected moves, ``q[u, u] = 1``.
 
     Floyd-Warshall on ``-log(1 - rho)`` of each entered cell (risk 1: probability 0, never NaN), then the
-    last move into ``v`` from its cheapest neighbour, whose own risk is not paid."""
-    rho = np.clip(np.asarray(risk, np.float64), 0.0, 1.0)
-    if rho.ndim != 2 or rho.shape[0] != rho.shape[1]:
-        raise ValueError(f"risk must be a square N x N map, got shape {rho.shape}")
+    last move into ``v`` from its cheapest neighbour, whose own risk is not paid. ``risk`` is checked as any
+    user map (:func:`jaxdc.core.grid.validate_risk_map`) and read in float64."""
+    grid.validate_risk_map(risk)
+    rho = np.asarray(risk, np.float64)
     adj = adjacency(rho.shape[0])
     with np.errstate(divide="ignore"):
         enter = -np.log1p(-rho.reshape(-1))
@@ -94,9 +95,13 @@ def tour_bound(q: np.ndarray, risk: Any, items: Any, start: int) -> float:
     """The unlimited-energy bound of one initial state: ``q`` from :func:`reach_table` of ``risk``, the item
     rewards ``items`` (``[N, N]`` or flat), the agent's flat start cell ``start``."""
     r_all = np.asarray(items, np.float64).reshape(-1)
-    if q.shape != (r_all.size, r_all.size) or not 0 <= int(start) < r_all.size:
-        raise ValueError(f"tour_bound needs q of shape {(r_all.size, r_all.size)} (reach_table of the map) and a "
-                         f"start cell in [0, {r_all.size}), got {q.shape} and {start!r}")
+    if q.shape != (r_all.size, r_all.size):
+        raise ValueError(f"tour_bound needs q of shape {(r_all.size, r_all.size)} (reach_table of the map), "
+                         f"got {q.shape}")
+    if isinstance(start, bool) or not isinstance(start, numbers.Integral) or not 0 <= start < r_all.size:
+        raise ValueError(f"start must be a flat cell index in [0, {r_all.size}), got {start!r}")
+    if not np.all(np.isfinite(r_all)) or np.any(r_all < 0):
+        raise ValueError(f"items must be finite rewards >= 0, got {r_all[~(np.isfinite(r_all) & (r_all >= 0))][0]}")
     cells = np.flatnonzero(r_all > 0)
     m = len(cells)
     if m == 0:
@@ -105,7 +110,7 @@ def tour_bound(q: np.ndarray, risk: Any, items: Any, start: int) -> float:
         raise ValueError(f"the unlimited-energy bound takes at most {MAX_ITEM_CELLS} item cells, got {m}")
     memory.check_fits(8 * m << m, f"the unlimited-energy bound's table of {m} item cells", "the item count")
     r = r_all[cells]
-    survive = 1.0 - np.clip(np.asarray(risk, np.float64).reshape(-1)[cells], 0.0, 1.0)
+    survive = 1.0 - np.asarray(risk, np.float64).reshape(-1)[cells]
     w = survive[:, None] * q[np.ix_(cells, cells)]  # [u, v]: from item cell u (collected) to v
     bits = np.int64(1) << np.arange(m, dtype=np.int64)
     values = np.zeros((1 << m, m))  # V(S, u); every cell collected: 0
@@ -118,6 +123,10 @@ def tour_bound(q: np.ndarray, risk: Any, items: Any, start: int) -> float:
             values[sets] = np.max(gain[:, None, :] * w[None, :, :], axis=2)
     first = q[int(start), cells] * (r + values[bits, np.arange(m)])
     return float(max(0.0, np.max(first)))
+
+
+#: :func:`jaxdc.core.rollout.initial_states`, compiled once per environment and episode count.
+_initial_states = jax.jit(initial_states, static_argnums=(0, 3))
 
 
 @functools.lru_cache(maxsize=64)
@@ -158,7 +167,7 @@ def evaluate_bound(env, params, key, episodes: int = 10_000) -> BoundEvaluation:
     check_bound_fits(env)
     env.check_params(params)
     episodes = check_positive_int("episodes", episodes)
-    _, states, _ = jax.jit(initial_states, static_argnums=(0, 3))(env, params, key, episodes)
+    _, states, _ = _initial_states(env, params, key, episodes)
     risks = np.asarray(jax.vmap(env.risk_of, in_axes=(0, None))(states, params), np.float64)
     items = np.asarray(states.items, np.float64)
     starts = np.asarray(states.pos[:, 0] * env.grid_size + states.pos[:, 1])

@@ -133,7 +133,18 @@ def test_bound_refuses_too_many_item_cells_by_name():
         tour_bound(reach_table(np.zeros((8, 8))), np.zeros((8, 8)), items, 0)
     with pytest.raises(ValueError, match="square"):
         reach_table(np.zeros((2, 3)))
-    with pytest.raises(ValueError, match=r"start cell in \[0, 64\), got \(64, 64\) and 64"):
-        tour_bound(reach_table(np.zeros((8, 8))), np.zeros((8, 8)), np.eye(8), 64)
+    q = reach_table(np.zeros((8, 8)))
+    for start in (64, -1, 2.0, True):
+        with pytest.raises(ValueError, match=r"start must be a flat cell index in \[0, 64\)"):
+            tour_bound(q, np.zeros((8, 8)), np.eye(8), start)
+    for bad in (np.nan, -1.0, np.inf):
+        items = np.eye(8)
+        items[3, 3] = bad
+        with pytest.raises(ValueError, match="items must be finite rewards >= 0"):
+            tour_bound(q, np.zeros((8, 8)), items, 0)
+    for risk, match in ((np.full((8, 8), np.nan), "finite"), (np.full((8, 8), 1.5), r"\[0, 1\]")):
+        risk[0, 0] = 0.0
+        with pytest.raises(ValueError, match=match):
+            reach_table(risk)
     with pytest.raises(ValueError, match=r"q of shape \(16, 16\)"):
         tour_bound(reach_table(np.zeros((8, 8))), np.zeros((4, 4)), np.eye(4), 0)
