@@ -52,6 +52,7 @@ from jaxdc.cli.train_common import (
 )
 from jaxdc.core import generators, grid
 from jaxdc.core.energy import MAX_ENERGY_TILT
+from jaxdc.core.sampling import MAX_TILT
 from jaxdc.io import check_not_input
 from jaxdc.nets.body import MAX_CONV_LAYERS, MAX_WIDTH
 from jaxdc.training.dcp import NETS, DCPRun, DCPSettings, settings_from_metadata
@@ -72,6 +73,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--min-total-reward", type=positive_int("--min-total-reward"), default=None,
                    help="beyond the thesis: each training episode drops a number of units drawn uniformly from "
                         "MIN..--total-reward (one network for Tables 4.3, 4.6 and 4.8; default: always --total-reward)")
+    p.add_argument("--item-tilt", type=real("--item-tilt", -MAX_TILT, MAX_TILT), default=0.0, metavar="A",
+                   help="beyond the thesis, with --min-total-reward: draw the unit count with density C**-A (A > 0 "
+                        "weights the episodes with few items; 1: log-uniform; default 0: uniform)")
     p.add_argument("--energy", nargs=2, type=training_energy("--energy"), metavar=("INIT", "MAX"),
                    default=(8.0, 16.0), help="initial and maximal energy, finite (Tables 4.3-4.8: 8 16)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=1000, help="episode step cap")
@@ -139,7 +143,7 @@ def settle(args):
                            observation=args.observation, risk_maps=args.risk_maps, map_seeds=tuple(args.map_seeds),
                            energy_range=None if args.energy_range is None else tuple(args.energy_range),
                            init_fraction=args.init_fraction, init_from=args.init_from,
-                           energy_tilt=args.energy_tilt,
+                           energy_tilt=args.energy_tilt, item_tilt=args.item_tilt,
                            body_features=None if args.body_features is None else tuple(args.body_features),
                            body_hidden=args.body_hidden)
     out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{seed_tag(args)}")

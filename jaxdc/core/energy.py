@@ -21,12 +21,13 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
+from jaxdc.core.sampling import MAX_TILT, power_law_integer
 from jaxdc.core.validate import check_float, value_text
 
 #: The largest finite budget: float32 counts every unit exactly up to 2**24, so ``energy - 1`` always lowers it.
 MAX_FINITE_ENERGY = float(2**24)
 #: The largest magnitude of a power-law tilt of drawn maximum energies (:func:`draw_max_energy`; beyond the thesis).
-MAX_ENERGY_TILT = 8.0
+MAX_ENERGY_TILT = MAX_TILT
 
 #: The fixed scale of the energy planes of the ``"general"`` observations (DCP and DCG, beyond the thesis;
 #: docs/generalisation.md): energies are divided by it, so any budget up to 64 shows in [0, 1] and larger ones stay
@@ -91,22 +92,11 @@ def check_energy_tilt(tilt: Any, name: str = "energy_tilt") -> float:
 def draw_max_energy(key: jax.Array, energy_range: jax.Array, tilt: jax.Array | None = None) -> jax.Array:
     """A maximum energy drawn among the integers of ``energy_range = [low, high]`` (float32; jit/vmap).
 
-    ``tilt`` ``None`` (or 0): uniformly. Otherwise (beyond the thesis) a power law: ``x`` is drawn with density
-    proportional to ``x ** -tilt`` on ``[low, high + 1)`` (inverse CDF; ``tilt = 1`` is log-uniform) and floored, so
-    that each integer ``E`` has probability proportional to the integral of ``x ** -tilt`` over ``[E, E + 1)``:
-    a positive tilt weights the low budgets, a negative one the high ones."""
-    low, high = energy_range[0], energy_range[1]
-    u = jax.random.uniform(key)
-    if tilt is None:
-        max_e = jnp.floor(low + u * (high - low + 1.0))
-    else:
-        top = high + 1.0
-        log_uniform = jnp.abs(tilt - 1.0) < 1e-6
-        b = jnp.where(log_uniform, 1.0, 1.0 - tilt)  # 1 - tilt, kept away from 0 in the branch not taken
-        base = jnp.maximum(low**b + u * (top**b - low**b), jnp.finfo(jnp.float32).tiny)  # > 0 after rounding
-        power = base ** (1.0 / b)
-        max_e = jnp.floor(jnp.where(log_uniform, low * (top / low) ** u, power))
-    return jnp.clip(max_e, low, high).astype(jnp.float32)
+    ``tilt`` ``None`` (or 0): uniformly. Otherwise (beyond the thesis) a power law
+    (:func:`jaxdc.core.sampling.power_law_integer`): each integer ``E`` has probability proportional to the
+    integral of ``x ** -tilt`` over ``[E, E + 1)`` (``tilt = 1`` is log-uniform), so a positive tilt weights the
+    low budgets, a negative one the high ones."""
+    return power_law_integer(key, energy_range[0], energy_range[1], tilt)
 
 
 def energy_used(metric: str, in_base: Any, was_in_base: Any) -> jax.Array:

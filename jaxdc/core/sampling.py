@@ -16,6 +16,9 @@ import jax.numpy as jnp
 MAX_RANGE = 65535
 #: The most units one reset may drop: the item planes count them in float32, exact up to 2**24.
 MAX_TOTAL_REWARD = 2**24
+#: The largest magnitude of the tilt of :func:`power_law_integer` (beyond the thesis: the tilted draws of a
+#: maximum energy and of an item count).
+MAX_TILT = 8.0
 
 
 def uniform_index(key, shape, n):
@@ -58,3 +61,25 @@ def running_count(mask):
         return jnp.cumsum(mask, dtype=jnp.int32)
     upper = jnp.triu(jnp.ones((n, n), jnp.float32))
     return jnp.matmul(mask.astype(jnp.float32), upper, precision=jax.lax.Precision.HIGHEST).astype(jnp.int32)
+
+
+def power_law_integer(key, low, high, tilt=None):
+    """An integer of ``[low, high]`` (float32; may be traced; jit/vmap), the draw of a tilted training distribution
+    (beyond the thesis: the maximum energy, :func:`jaxdc.core.energy.draw_max_energy`, and the item count of a DCP
+    episode).
+
+    ``tilt`` ``None``: uniformly. Otherwise a power law: ``x`` is drawn with density proportional to ``x ** -tilt``
+    on ``[low, high + 1)`` (inverse CDF; ``tilt = 1`` is log-uniform) and floored, so that each integer ``E`` has
+    probability proportional to the integral of ``x ** -tilt`` over ``[E, E + 1)``: a positive tilt weights the low
+    integers, a negative one the high ones. ``low >= 1`` (the density is finite there); ``|tilt| <= MAX_TILT``."""
+    u = jax.random.uniform(key)
+    if tilt is None:
+        x = jnp.floor(low + u * (high - low + 1.0))
+    else:
+        top = high + 1.0
+        log_uniform = jnp.abs(tilt - 1.0) < 1e-6
+        b = jnp.where(log_uniform, 1.0, 1.0 - tilt)  # 1 - tilt, kept away from 0 in the branch not taken
+        base = jnp.maximum(low**b + u * (top**b - low**b), jnp.finfo(jnp.float32).tiny)  # > 0 after rounding
+        power = base ** (1.0 / b)
+        x = jnp.floor(jnp.where(log_uniform, low * (top / low) ** u, power))
+    return jnp.clip(x, low, high).astype(jnp.float32)

@@ -42,9 +42,17 @@ from jaxdc.core.energy import (
     step_energy,
 )
 from jaxdc.core.env import Environment, Transition
-from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, running_count, uniform_index
+from jaxdc.core.sampling import (
+    MAX_RANGE,
+    MAX_TILT,
+    MAX_TOTAL_REWARD,
+    drop_units,
+    power_law_integer,
+    running_count,
+    uniform_index,
+)
 from jaxdc.core.scene import Scene
-from jaxdc.core.validate import INT32_MAX, check_int, check_positive_int, is_int, value_text
+from jaxdc.core.validate import INT32_MAX, check_float, check_int, check_positive_int, is_int, value_text
 
 #: How an episode ended; ``info["outcome"]`` holds the index.
 OUTCOMES = ("running", "risk", "energy", "cleared", "idle", "truncated")
@@ -124,6 +132,14 @@ class DCP(Environment[EnvState, EnvParams]):
         episode drops a number of units drawn uniformly from
         ``m .. total_reward`` (a training distribution beyond the thesis, for
         one network that plays Tables 4.3, 4.6 and 4.8; docs/learning.md).
+      item_tilt: with ``min_total_reward``, 0 (default: the count is uniform
+        on ``min_total_reward .. total_reward``) or the tilt ``a`` of a power
+        law, ``|a| <= MAX_TILT`` (:func:`jaxdc.core.sampling.power_law_integer`:
+        count ``c`` with the mass of ``x ** -a`` over ``[c, c + 1)``), so a
+        positive tilt weights the episodes with few items (``a = 1``:
+        log-uniform). Beyond the thesis: a training distribution for one
+        network that plays one item as well as many
+        (docs/generalisation.md).
       observation: ``"thesis"`` (default): the two planes of section 4.4.3.
         ``"general"`` (beyond the thesis): four planes ``[N, N, 4]``: items,
         the energy at the agent's cell, the episode's risk map and its
@@ -153,6 +169,7 @@ class DCP(Environment[EnvState, EnvParams]):
         item_order: str = "drop",
         min_total_reward: int | None = None,
         observation: str = "thesis",
+        item_tilt: float = 0.0,
     ) -> None:
         self.grid_size = grid.check_grid_size(grid_size, max_cells=MAX_RANGE)  # the drop's uniform_index range
         check_int("total_reward", total_reward, 1, MAX_TOTAL_REWARD)
@@ -162,6 +179,10 @@ class DCP(Environment[EnvState, EnvParams]):
             if not 1 <= min_total_reward <= total_reward:
                 raise ValueError(
                     f"min_total_reward must be in [1, total_reward={total_reward}], got {min_total_reward}")
+        item_tilt = check_float("item_tilt", item_tilt, -MAX_TILT, MAX_TILT)
+        if item_tilt != 0.0 and min_total_reward is None:
+            raise ValueError(f"item_tilt={item_tilt:g} tilts the draw of the item count from min_total_reward to "
+                             "total_reward and needs min_total_reward: without it, item_tilt must be 0")
         if start not in STARTS:
             raise ValueError(f"start must be one of {STARTS}, got {start!r}")
         if energy_metric not in ENERGY_METRICS:
@@ -178,11 +199,13 @@ class DCP(Environment[EnvState, EnvParams]):
         self.idle_terminates = bool(idle_terminates)
         self.item_order = item_order
         self.min_total_reward = None if min_total_reward is None else int(min_total_reward)
+        self.item_tilt = item_tilt
 
     def _config(self) -> tuple:
         return (self.grid_size, self.total_reward, self.start, self.items_on_base,
                 self.energy_metric, self.idle_terminates, self.item_order, self.min_total_reward) + (
-                    () if self.observation == "thesis" else (self.observation,))
+                    () if self.observation == "thesis" else (self.observation,)) + (
+                    () if self.item_tilt == 0.0 else (("item_tilt", self.item_tilt),))
 
     def __repr__(self) -> str:
         return (
@@ -190,7 +213,8 @@ class DCP(Environment[EnvState, EnvParams]):
             f"items_on_base={self.items_on_base}, energy_metric={self.energy_metric!r}, "
             f"idle_terminates={self.idle_terminates}, item_order={self.item_order!r}"
             + ("" if self.min_total_reward is None else f", min_total_reward={self.min_total_reward}")
-            + ("" if self.observation == "thesis" else f", observation={self.observation!r}") + ")"
+            + ("" if self.observation == "thesis" else f", observation={self.observation!r}")
+            + ("" if self.item_tilt == 0.0 else f", item_tilt={self.item_tilt:g}") + ")"
         )
 
     # -- parameters -------------------------------------------------------------------
@@ -268,10 +292,14 @@ class DCP(Environment[EnvState, EnvParams]):
             instance = {"map_id": map_id, "max_energy": max_e}
         k_items, k_start = jax.random.split(key)
         count = None
-        if self.min_total_reward is not None:  # units drawn uniformly from min_total_reward .. total_reward
+        if self.min_total_reward is not None:  # units drawn from min_total_reward .. total_reward
             k_items, k_count = jax.random.split(k_items)
-            span = self.total_reward - self.min_total_reward + 1
-            count = self.min_total_reward + uniform_index(k_count, (), span)
+            if self.item_tilt == 0.0:  # uniformly
+                span = self.total_reward - self.min_total_reward + 1
+                count = self.min_total_reward + uniform_index(k_count, (), span)
+            else:  # by the power law of item_tilt
+                count = power_law_integer(k_count, float(self.min_total_reward), float(self.total_reward),
+                                          self.item_tilt).astype(jnp.int32)
         items, first = drop_units(k_items, self.total_reward, n * n, 0 if self.items_on_base else 1, count)
         rank = first if self.item_order == "drop" else jnp.arange(n * n, dtype=jnp.int32)
         if self.start == "base":

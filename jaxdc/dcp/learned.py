@@ -47,7 +47,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
     from jaxdc.core import grid
     from jaxdc.core.energy import ENERGY_METRICS, MAX_ENERGY_TILT, MAX_FINITE_ENERGY
     from jaxdc.core.generators import GENERATORS
-    from jaxdc.core.sampling import MAX_TOTAL_REWARD
+    from jaxdc.core.sampling import MAX_TILT, MAX_TOTAL_REWARD
     from jaxdc.core.validate import SEED_MAX
     from jaxdc.dcp import env as dcp_env
     from jaxdc.nets.body import MAX_WIDTH
@@ -71,6 +71,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "risk_maps": optional(json_choice(tuple(GENERATORS))), "map_seeds": optional(json_list(json_int(0), 2)),
         "energy_range": optional(json_list(json_number(0.0, MAX_FINITE_ENERGY, low_open=True), 2)),
         "energy_tilt": json_number(-MAX_ENERGY_TILT, MAX_ENERGY_TILT),
+        "item_tilt": json_number(-MAX_TILT, MAX_TILT),
         "init_fraction": optional(json_number(0.0, 1.0)),
         "init_from": optional(json_string), "init_sha256": optional(json_string),
         "body_features": json_list(json_int(1, MAX_WIDTH)), "body_hidden": json_int(1, MAX_WIDTH),

@@ -28,6 +28,7 @@ from jaxdc.dcp.evaluate import summarize
 from jaxdc.metadata import FORMAT, check_run, recorded_pair, run_settings
 from jaxdc.nets import DCP_NETS, NSTEP_Q
 from jaxdc.nets.registry import body_options
+from jaxdc.training.fields import check_tilt_has_range
 from jaxdc.training.instances import check_instance_settings, instance_metadata, training_params
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
 from jaxdc.training.warm_start import check_init_from, check_same_setting, init_metadata
@@ -50,6 +51,9 @@ class DCPSettings:
       risk, grid_size, total_reward, energy, max_steps: the environment setting (Table 4.2, section 4.5).
       min_total_reward: each training episode drops a number of units drawn from ``min..total_reward``
         (beyond the thesis); ``None``: always ``total_reward``.
+      item_tilt: with ``min_total_reward``, 0 (uniform) or a power-law tilt of the draw of the unit count
+        (:class:`jaxdc.dcp.env.DCP`'s ``item_tilt``; a positive tilt weights the episodes with few items; beyond
+        the thesis).
       eval_episodes: episodes per evaluation.
       greedy_eval: evaluate the argmax policy (EQN: epsilon 0).
       eval_epsilon: EQN's evaluation epsilon (section 4.5.5: 0.05).
@@ -89,6 +93,7 @@ class DCPSettings:
     energy_tilt: float = 0.0
     body_features: tuple[int, ...] | None = None
     body_hidden: int | None = None
+    item_tilt: float = 0.0
 
     @property
     def per_episode(self) -> bool:
@@ -102,6 +107,8 @@ class DCPSettings:
         if not isinstance(self.config, want):
             raise TypeError(f"net {self.net!r} trains with a {want.__name__}, got {type(self.config).__name__}")
         check_instance_settings(self)
+        object.__setattr__(self, "item_tilt", check_tilt_has_range(self.item_tilt, self.min_total_reward,
+                                                                   "item_tilt", "min_total_reward"))
         sized = body_options("dcp", self.net, self.body_features, self.body_hidden)
         for k in learned.BODY_KEYS:  # the set ones as plain ints (a list or numpy ints read from a file)
             if getattr(self, k) is not None:
@@ -147,6 +154,7 @@ def run_metadata(s: DCPSettings, seeds: Iterable[int], init_sha256: str | None =
         **({"seeds": seeds} if len(seeds) > 1 else {"seed": seeds[0]}),
         "algorithm": dataclasses.asdict(s.config),
         **instance_metadata(s),
+        **({} if s.item_tilt == 0.0 else {"item_tilt": s.item_tilt}),
         **{k: list(v) if isinstance(v, tuple) else v for k, v in s.body().items()},
         **init_metadata(s.init_from, init_sha256),
     }
@@ -160,6 +168,7 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCPSettings, tuple
     energy = recorded_pair(meta.get("energy", list(DCPSettings.energy)), "energy", where, " [initial, maximum]")
     setting = {k: meta[k] for k in ("risk", "grid_size", "total_reward", "min_total_reward", "max_steps",
                                     "observation", "risk_maps", "init_fraction", "init_from", "energy_tilt",
+                                    "item_tilt",
                                     *learned.BODY_KEYS)  # the body's list is checked by DCPSettings
                if meta.get(k) is not None}
     for k in ("map_seeds", "energy_range"):  # pairs, stored as lists
@@ -180,7 +189,8 @@ class DCPRun(TrainingRun):
         algo = nstep_q if s.uses_q_learning else a2c
         self.net = learned.make_network(s.net, s.body())
         self.env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward,
-                               min_total_reward=s.min_total_reward, observation=s.observation)
+                               min_total_reward=s.min_total_reward, observation=s.observation,
+                               item_tilt=s.item_tilt)
         if s.per_episode:
             self.env_params = training_params(s, self.env)
             check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))

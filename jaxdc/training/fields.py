@@ -92,14 +92,17 @@ class SettingError(ValueError):
         return self.template.format(*(name(f) for f in self.fields))
 
 
-def check_tilt_has_range(energy_tilt: Any, energy_range: Any) -> float:
-    """The checked ``energy_tilt`` of a run's settings (DCP and DCG alike): a finite tilt of the draw of
-    ``energy_range`` (:func:`jaxdc.core.energy.check_energy_tilt`), which must be 0 when there is no range."""
-    from jaxdc.core.energy import check_energy_tilt
-    from jaxdc.core.validate import value_text
+def check_tilt_has_range(tilt: Any, span: Any, name: str = "energy_tilt", span_name: str = "energy_range") -> float:
+    """The checked tilt ``name`` of a run's settings (DCP and DCG alike): a finite power-law tilt of the draw that
+    the setting ``span_name`` (value ``span``) spans, ``|tilt| <= MAX_TILT``
+    (:func:`jaxdc.core.sampling.power_law_integer`), which must be 0 when ``span`` is ``None``. The defaults are
+    the maximum energy's (``energy_tilt``, ``energy_range``); the DCP's item count has ``item_tilt`` and
+    ``min_total_reward``."""
+    from jaxdc.core.sampling import MAX_TILT
+    from jaxdc.core.validate import check_float, value_text
 
-    tilt = check_energy_tilt(energy_tilt)
-    if tilt != 0.0 and energy_range is None:
+    tilt = check_float(name, tilt, -MAX_TILT, MAX_TILT)
+    if tilt != 0.0 and span is None:
         raise SettingError(f"{{0}}={value_text(tilt)} tilts the draw of {{1}} and needs it: without {{1}}, "
-                           "{0} must be 0", "energy_tilt", "energy_range")
+                           "{0} must be 0", name, span_name)
     return tilt

@@ -41,6 +41,7 @@ class Preset:
     map_seeds: tuple[int, int] | None = None
     energy_range: tuple[float, float] | None = None
     energy_tilt: float | None = None
+    item_tilt: float | None = None
     body_features: tuple[int, ...] | None = None
     body_hidden: int | None = None
     total_steps: int | None = None

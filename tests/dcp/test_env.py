@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from scipy import stats
 
 from jaxdc.dcp.env import CLEARED, DCP, ENERGY, IDLE, RISK, RUNNING, TRUNCATED, EnvParams
+from tests.support.draws import assert_power_law
 from tests.support.states import make_state, risk_with
 
 A = {"stay": 0, "up": 1, "down": 2, "left": 3, "right": 4, "up_left": 5, "up_right": 6, "down_left": 7,
@@ -256,6 +257,27 @@ def test_reset_min_total_reward_draws_the_total_uniformly():
     assert np.all(np.asarray(s.items).reshape(50, -1).sum(axis=1) == 6)
 
 
+@pytest.mark.parametrize("tilt", [1.0, 2.0, -0.5])
+def test_reset_item_tilt_draws_the_total_by_its_power_law(tilt):
+    """``item_tilt`` (beyond the thesis): each unit count ``c`` of ``min_total_reward..total_reward`` has the mass of
+    ``x ** -tilt`` over ``[c, c + 1)`` (the draw of :func:`jaxdc.core.sampling.power_law_integer`)."""
+    m = 6000
+    _, s = _resets(DCP(grid_size=4, total_reward=12, min_total_reward=2, item_tilt=tilt), m, seed=5)
+    totals = np.asarray(s.items).reshape(m, -1).sum(axis=1)
+    expected = assert_power_law(totals, 2, 12, tilt)
+    assert (expected[0] > 1 / 11) == (tilt > 0)  # a positive tilt weights the few items, a negative one the many
+
+
+def test_reset_item_tilt_zero_is_the_uniform_draw():
+    """``item_tilt=0`` is the same environment as without it: the same episodes for the same keys."""
+    plain, zero = DCP(grid_size=4, total_reward=6, min_total_reward=2), DCP(grid_size=4, total_reward=6,
+                                                                            min_total_reward=2, item_tilt=0.0)
+    assert plain == zero and repr(plain) == repr(zero)
+    a, b = _resets(plain, 50, seed=6)[1], _resets(zero, 50, seed=6)[1]
+    np.testing.assert_array_equal(np.asarray(a.items), np.asarray(b.items))
+    assert DCP(grid_size=4, total_reward=6, min_total_reward=2, item_tilt=1.0) != plain
+
+
 def test_reset_items_on_base_off():
     env = DCP(grid_size=3, total_reward=20, items_on_base=False)
     _, s = _resets(env, 300)
@@ -465,6 +487,10 @@ def test_determinism_by_seed():
         (dict(total_reward=5, min_total_reward=6), ValueError, "min_total_reward"),
         (dict(min_total_reward=0), ValueError, "min_total_reward"),
         (dict(min_total_reward=2.0), TypeError, "min_total_reward"),
+        (dict(item_tilt=1.0), ValueError, "item_tilt=1 tilts the draw of the item count"),
+        (dict(min_total_reward=1, item_tilt=9.0), ValueError, "item_tilt must be >= -8 and <= 8, got 9"),
+        (dict(min_total_reward=1, item_tilt=float("nan")), ValueError, "item_tilt must be >= -8 and <= 8, got NaN"),
+        (dict(min_total_reward=1, item_tilt="1"), TypeError, "item_tilt must be a number"),
     ],
 )
 def test_bad_constructor_args(kwargs, exc, word):

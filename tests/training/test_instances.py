@@ -61,3 +61,20 @@ def test_a_tilt_reaches_the_params_and_the_metadata_only_when_set():
     plain = DCPSettings(net="enn", config=A2CConfig(), risk_maps="mix", map_seeds=(0, 4), energy_range=(8.0, 48.0))
     assert "energy_tilt" not in run_metadata(plain, [0])  # old files unchanged
     assert training_params(plain, DCP()).energy_tilt is None
+
+
+def test_an_item_tilt_reaches_the_environment_and_the_metadata_only_when_set():
+    """``item_tilt`` (beyond the thesis) needs ``min_total_reward``; it is recorded only when set (old files
+    unchanged), and ``--config`` reproduces it."""
+    from jaxdc.agents.a2c import A2CConfig
+    from jaxdc.training.dcp import DCPSettings, run_metadata, settings_from_metadata
+
+    with pytest.raises(ValueError, match="item_tilt=1 tilts the draw of min_total_reward and needs it"):
+        DCPSettings(net="enn", config=A2CConfig(), item_tilt=1.0)
+    with pytest.raises(ValueError, match="item_tilt must be >= -8"):
+        DCPSettings(net="enn", config=A2CConfig(), min_total_reward=1, item_tilt=-9.0)
+    tilted = DCPSettings(net="enn", config=A2CConfig(), min_total_reward=1, item_tilt=0.5)
+    meta = run_metadata(tilted, [0])
+    assert meta["item_tilt"] == 0.5
+    assert settings_from_metadata(meta, "config.json")[0] == tilted
+    assert "item_tilt" not in run_metadata(DCPSettings(net="enn", config=A2CConfig(), min_total_reward=1), [0])
