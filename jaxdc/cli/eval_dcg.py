@@ -432,9 +432,10 @@ def _render(args, command) -> int:
 
 
 def _render_paths(s: RenderSettings, net_name: str) -> tuple[str, str]:
-    """The strip (PNG) and the animation (GIF) a render writes."""
-    stem = (f"dcg_{net_name}_{s.strategy}_s{s.seed}" + ("_greedy" if s.greedy else "")
-            + (f"_area{s.reward_area}" if s.reward_area else ""))
+    """The strip (PNG) and the animation (GIF) a render writes (``_run<S>`` for one seed of a ``--seeds`` run folder,
+    as the results of ``evaluate``, so that the seeds of one folder do not overwrite each other)."""
+    stem = (f"dcg_{net_name}_{s.strategy}" + ("" if s.run_seed is None else f"_run{s.run_seed}") + f"_s{s.seed}"
+            + ("_greedy" if s.greedy else "") + (f"_area{s.reward_area}" if s.reward_area else ""))
     return os.path.join(s.out, stem + ".png"), os.path.join(s.out, stem + ".gif")
 
 

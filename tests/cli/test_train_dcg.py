@@ -146,6 +146,10 @@ def test_seeds_run_vmapped_and_seed_0_equals_the_single_run(finished_run, tmp_pa
     assert eval_dcg.main(["evaluate", "--checkpoint", out, "--run-seed", "3", "--episodes", "8", "--out", results,
                           "--no-bound"]) == 0
     assert os.listdir(results) == ["eval_vnn_e8_restricted_run3_s0.json"]
+    pictures = str(tmp_path / "pictures")  # render names its pictures by the seed too
+    assert eval_dcg.main(["render", "--checkpoint", out, "--run-seed", "3", "--strategy", "restricted",
+                          "--max-steps", "3", "--out", pictures]) == 0
+    assert sorted(os.listdir(pictures)) == ["dcg_vnn_restricted_run3_s0.gif", "dcg_vnn_restricted_run3_s0.png"]
     capsys.readouterr()
     refused(eval_dcg.main, ["evaluate", "--net", "vnn", "--run-seed", "3", "--out", results], capsys,
             "--run-seed 3 needs --checkpoint")
