@@ -106,6 +106,13 @@ def _neighbour_table(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return succ, valid, adj
 
 
+def successors(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``([N*N, 8] int32, [N*N, 8] bool)``: the cell each non-stay move (actions 1..8) leads to, clipped at the border
+    as :func:`jaxdc.core.grid.move`, and whether that is another cell (a clipped move onto its own cell is not)."""
+    succ, valid, _ = _neighbour_table(n)
+    return succ, valid
+
+
 def adjacency(n: int) -> np.ndarray:
     """``[N*N, N*N]`` bool: the cells one non-stay move apart (Chebyshev distance 1), row-major."""
     return _neighbour_table(n)[2]

@@ -24,12 +24,13 @@ from jaxdc.dcp.env import DCP, OUTCOMES, EnvParams
 from jaxdc.dcp.planners import PlannerConfig
 
 
-def heuristic_policy(name: str, table, cfg: PlannerConfig = PlannerConfig()):
-    """``policy(key, obs, state)`` for a navigator or planner name (see :data:`navigators.POLICIES`)."""
+def heuristic_policy(name: str, table, cfg: PlannerConfig = PlannerConfig(), max_energy=None):
+    """``policy(key, obs, state)`` for a navigator or planner name (see :data:`navigators.POLICIES`; Safe-Budget
+    also reads the maximum energy)."""
     check_choice("policy", name, navigators.POLICIES)
 
     def policy(key, obs, state):
-        return navigators.policy_action(name, state, table, cfg)
+        return navigators.policy_action(name, state, table, cfg, max_energy)
 
     return policy
 
@@ -37,7 +38,7 @@ def heuristic_policy(name: str, table, cfg: PlannerConfig = PlannerConfig()):
 @functools.partial(jax.jit, static_argnames=("env", "name", "cfg", "episodes", "path_risk"))
 def _run_heuristic(env, params, key, name, cfg, episodes, path_risk):
     table = safest_paths(params.risk, path_risk)
-    return run_episodes(env, params, heuristic_policy(name, table, cfg), key, episodes)
+    return run_episodes(env, params, heuristic_policy(name, table, cfg, params.max_energy), key, episodes)
 
 
 @functools.partial(jax.jit, static_argnames=("env", "name", "cfg", "episodes"))
@@ -66,12 +67,13 @@ def evaluate_heuristic(
 @functools.partial(jax.jit, static_argnames=("env", "net", "net_name", "episodes", "greedy", "cfg", "path_risk",
                                              "mask"))
 def _run_learned(env, params, key, net, net_name, net_params, episodes, greedy, epsilon, cfg, path_risk, mask):
-    from jaxdc.dcp.learned import Learned
+    from jaxdc.dcp.learned import Learned, heuristic_rows
 
+    rows = heuristic_rows(net)
     if params.maps is None:
-        heuristics = navigators.batched_heuristics(params, safest_paths(params.risk, path_risk), cfg)
+        heuristics = navigators.batched_heuristics(params, safest_paths(params.risk, path_risk), cfg, rows)
     else:  # per-episode maps: each episode's own table (computed with the default path_risk)
-        heuristics = instances.batched_heuristics(params, cfg)
+        heuristics = instances.batched_heuristics(params, cfg, rows)
     learned = Learned(net_name, net, net_params, {}, "")
     return run_episodes(env, params, learned.policy(heuristics, greedy, epsilon, masks.make_mask(mask, env)), key,
                         episodes)
@@ -94,7 +96,8 @@ def evaluate_learned(
     ``learned`` is a :class:`jaxdc.dcp.learned.Learned`. Actor-critics sample
     from ``pi`` (section 4.5) unless ``greedy``; EQN is epsilon-greedy with
     ``epsilon`` (default 0.05, section 4.5.5). The network sees the ten ENN
-    heuristics of section 4.4.3 computed on ``params``' risk map. ``mask`` names an action mask of
+    heuristics of section 4.4.3 computed on ``params``' risk map (and Safe-Budget, if it reads eleven rows).
+    ``mask`` names an action mask of
     :data:`jaxdc.core.masks.MASKS` (``"none"``: the thesis' policy). Raises a
     ``ValueError`` if the network's parameters do not fit ``env``'s grid.
     """

@@ -137,11 +137,13 @@ def state_params(params: EnvParams, state: EnvState) -> EnvParams:
     return dataclasses.replace(params, risk=params.maps[state.map_id], max_energy=state.max_energy)
 
 
-def batched_heuristics(params: EnvParams, cfg: PlannerConfig = PlannerConfig()) -> Callable:
-    """``env_states [B] -> [B, 10, 9]``: the ENN heuristics of each episode on its own map's table."""
+def batched_heuristics(params: EnvParams, cfg: PlannerConfig = PlannerConfig(), rows: int = 10) -> Callable:
+    """``env_states [B] -> [B, rows, 9]``: the ENN heuristics of each episode on its own map's table (``rows``: 10,
+    the thesis', or 11 with Safe-Budget, :func:`jaxdc.dcp.navigators.enn_heuristics`)."""
+    navigators.check_rows(rows)
 
     def one(state):
-        return navigators.enn_heuristics(state, state_params(params, state), state_table(params, state), cfg)
+        return navigators.enn_heuristics(state, state_params(params, state), state_table(params, state), cfg, rows)
 
     return jax.vmap(one)
 
@@ -152,7 +154,8 @@ def heuristic_policy(name: str, params: EnvParams, cfg: PlannerConfig = PlannerC
         raise ValueError(f"policy must be one of {navigators.POLICIES}, got {name!r}")
 
     def policy(key, obs, state):
-        return navigators.policy_action(name, state, state_table(params, state), cfg)
+        return navigators.policy_action(name, state, state_table(params, state), cfg,
+                                        state_params(params, state).max_energy)
 
     return policy
 

@@ -50,6 +50,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
     from jaxdc.core.sampling import MAX_TILT, MAX_TOTAL_REWARD
     from jaxdc.core.validate import SEED_MAX
     from jaxdc.dcp import env as dcp_env
+    from jaxdc.dcp.navigators import HEURISTIC_ROWS
     from jaxdc.nets.body import MAX_WIDTH
     from jaxdc.pretrained import (
         json_bool,
@@ -75,6 +76,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "init_fraction": optional(json_number(0.0, 1.0)),
         "init_from": optional(json_string), "init_sha256": optional(json_string),
         "body_features": json_list(json_int(1, MAX_WIDTH)), "body_hidden": json_int(1, MAX_WIDTH),
+        "heuristic_rows": json_int(min(HEURISTIC_ROWS), max(HEURISTIC_ROWS)),  # the row counts are consecutive
         "env": json_object({"start": json_choice(dcp_env.STARTS), "items_on_base": json_bool,
                             "idle_terminates": json_bool, "item_order": json_choice(dcp_env.ITEM_ORDERS),
                             "energy_metric": json_choice(ENERGY_METRICS)}),
@@ -124,6 +126,11 @@ class Learned(pretrained.Learned):
         """``"thesis"`` or ``"general"``: what the network reads (:data:`jaxdc.dcp.env.OBSERVATIONS`)."""
         return observation_of(self.metadata)
 
+    @property
+    def heuristic_rows(self) -> int:
+        """How many ENN heuristic rows the network reads (:func:`heuristic_rows`)."""
+        return heuristic_rows(self.net)
+
     def policy(self, heuristics: Any = None, greedy: bool = False, epsilon: float = EQN_EPSILON,
                mask: Callable | None = None) -> Callable:
         """``policy(key, obs, state)`` of the network for :func:`jaxdc.core.rollout.run_episodes`.
@@ -155,15 +162,26 @@ BODY_KEYS = ("body_features", "body_hidden")
 
 def make_network(net_name: str, meta: dict | None = None) -> Any:
     """The flax module of ``net_name`` (ENN Fig. 4.3, EQN Fig. 4.4, linear learner Table 4.9, CNN), with the body
-    its metadata ``meta`` records (:data:`BODY_KEYS`; none: the thesis' body)."""
+    its metadata ``meta`` records (:data:`BODY_KEYS`; none: the thesis' body) and, for ENN and EQN, the number of
+    heuristic rows it reads (``heuristic_rows``; none: the thesis' ten)."""
     meta = meta or {}
-    return build("dcp", net_name, **{k: meta[k] for k in BODY_KEYS if meta.get(k) is not None})
+    rows = meta.get("heuristic_rows")
+    return build("dcp", net_name, **{k: meta[k] for k in BODY_KEYS if meta.get(k) is not None},
+                 **({} if rows is None else {"num_heuristics": rows}))
+
+
+def heuristic_rows(net: Any) -> int:
+    """The number of ENN heuristic rows network module ``net`` reads: its ``num_heuristics`` (ENN, EQN; 10 is the
+    thesis' rows, 11 adds Safe-Budget, :data:`jaxdc.dcp.navigators.BUDGET_HEURISTICS`), or 10 for a network that
+    reads none (whose heuristics are ignored)."""
+    return int(getattr(net, "num_heuristics", 10))
 
 
 def init_params(net: Any, grid_size: int, key: jax.Array | None = None, observation: str = "thesis") -> Any:
     """Freshly initialised parameters of ``net`` for an ``grid_size x grid_size`` grid (shapes only matter)."""
     obs = jnp.zeros((1, grid_size, grid_size, 2 if observation == "thesis" else 4), jnp.float32)
-    heur = jnp.zeros((1, 10, 9), jnp.float32) if getattr(net, "uses_heuristics", True) else jnp.zeros((1, 1, 9))
+    heur = (jnp.zeros((1, heuristic_rows(net), 9), jnp.float32) if getattr(net, "uses_heuristics", True)
+            else jnp.zeros((1, 1, 9)))
     return net.init(key if key is not None else jax.random.PRNGKey(0), obs, heur)
 
 
@@ -224,12 +242,13 @@ def _train_state(name: str, meta: dict, source: str) -> Any:
         config = cls(**algo)
     except (TypeError, ValueError) as e:
         raise ValueError(f"{source}: the metadata has an unusable algorithm configuration: {e}") from None
+    net = make_network(name, meta)
     if per_episode:  # the state's structure only: one map stands for the run's set
         env_params = instances.fixed_instance(env, s["risk"], tuple(s["energy"]), s["max_steps"])
-        heur = instances.batched_heuristics(env_params)
+        heur = instances.batched_heuristics(env_params, rows=heuristic_rows(net))
     else:
-        heur = navigators.batched_heuristics(env_params, safest_paths(env_params.risk))
-    trainer = (nstep_q if q_learning else a2c).make_train(config, env, env_params, make_network(name, meta), heur)
+        heur = navigators.batched_heuristics(env_params, safest_paths(env_params.risk), rows=heuristic_rows(net))
+    trainer = (nstep_q if q_learning else a2c).make_train(config, env, env_params, net, heur)
     return trainer.init(jax.random.PRNGKey(0))
 
 

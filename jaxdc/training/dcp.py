@@ -68,6 +68,9 @@ class DCPSettings:
       init_from: ``None`` (a fresh initialisation, as the thesis) or a trained actor-critic of the run's network,
         grid size and observation -- a shipped name, a ``.msgpack`` or a ``train.dcp`` run folder -- whose
         parameters start the run (a warm start, beyond the thesis: :func:`start_params`). Not for EQN.
+      heuristic_rows: the ENN heuristic rows ENN or EQN reads: 10 (the thesis' ten, section 4.4.3) or 11, which
+        adds Safe-Budget (beyond the thesis; :func:`jaxdc.dcp.navigators.safe_budget_action`: the route to LPG's
+        item that fits the energy).
       body_features, body_hidden: the filter counts of the convolutional layers and the hidden units of the body of
         ENN, EQN or the CNN (``None``: the thesis' ``(32, 16)`` and 256, section 4.5; beyond the thesis, a wider
         body for a network that plays many maps and budgets: :func:`jaxdc.nets.registry.body_options`).
@@ -94,6 +97,7 @@ class DCPSettings:
     body_features: tuple[int, ...] | None = None
     body_hidden: int | None = None
     item_tilt: float = 0.0
+    heuristic_rows: int = 10
 
     @property
     def per_episode(self) -> bool:
@@ -113,6 +117,10 @@ class DCPSettings:
         for k in learned.BODY_KEYS:  # the set ones as plain ints (a list or numpy ints read from a file)
             if getattr(self, k) is not None:
                 object.__setattr__(self, k, sized[k])
+        object.__setattr__(self, "heuristic_rows", navigators.check_rows(self.heuristic_rows))
+        if self.heuristic_rows != 10 and not DCP_NETS[self.net].uses_heuristics:
+            raise ValueError(f"heuristic_rows={self.heuristic_rows}: network {self.net!r} reads no heuristics "
+                             f"(ENN and EQN do)")
         check_init_from(self.init_from)
         if self.init_from is not None and self.uses_q_learning:
             raise ValueError(f"init_from={self.init_from!r}: a warm start applies to the actor-critics (A2C); "
@@ -127,6 +135,11 @@ class DCPSettings:
         """The body fields (``body_features``, ``body_hidden``) that are set: the metadata records them, and they
         are keyword arguments of :func:`jaxdc.nets.registry.build`."""
         return {k: getattr(self, k) for k in learned.BODY_KEYS if getattr(self, k) is not None}
+
+    def network_options(self) -> dict[str, Any]:
+        """What the metadata records about the network's shape beyond its name: the body fields that are set and
+        ``heuristic_rows`` when it is not the thesis' 10 (:func:`jaxdc.dcp.learned.make_network` reads them)."""
+        return {**self.body(), **({} if self.heuristic_rows == 10 else {"heuristic_rows": self.heuristic_rows})}
 
 
 def start_params(s: DCPSettings) -> tuple[Any, str] | None:
@@ -155,7 +168,7 @@ def run_metadata(s: DCPSettings, seeds: Iterable[int], init_sha256: str | None =
         "algorithm": dataclasses.asdict(s.config),
         **instance_metadata(s),
         **({} if s.item_tilt == 0.0 else {"item_tilt": s.item_tilt}),
-        **{k: list(v) if isinstance(v, tuple) else v for k, v in s.body().items()},
+        **{k: list(v) if isinstance(v, tuple) else v for k, v in s.network_options().items()},
         **init_metadata(s.init_from, init_sha256),
     }
 
@@ -168,7 +181,7 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCPSettings, tuple
     energy = recorded_pair(meta.get("energy", list(DCPSettings.energy)), "energy", where, " [initial, maximum]")
     setting = {k: meta[k] for k in ("risk", "grid_size", "total_reward", "min_total_reward", "max_steps",
                                     "observation", "risk_maps", "init_fraction", "init_from", "energy_tilt",
-                                    "item_tilt",
+                                    "item_tilt", "heuristic_rows",
                                     *learned.BODY_KEYS)  # the body's list is checked by DCPSettings
                if meta.get(k) is not None}
     for k in ("map_seeds", "energy_range"):  # pairs, stored as lists
@@ -187,19 +200,19 @@ class DCPRun(TrainingRun):
         meta = run_metadata(s, control.seeds, sha)
         self.claim(control, meta)  # lock the folder, check a resume: before the build
         algo = nstep_q if s.uses_q_learning else a2c
-        self.net = learned.make_network(s.net, s.body())
+        self.net = learned.make_network(s.net, s.network_options())
         self.env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward,
                                min_total_reward=s.min_total_reward, observation=s.observation,
                                item_tilt=s.item_tilt)
         if s.per_episode:
             self.env_params = training_params(s, self.env)
             check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
-            self.heuristics = instances.batched_heuristics(self.env_params)
+            self.heuristics = instances.batched_heuristics(self.env_params, rows=s.heuristic_rows)
         else:
             self.env_params = self.env.make_params(s.risk, tuple(s.energy), s.max_steps)
             check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
             table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
-            self.heuristics = navigators.batched_heuristics(self.env_params, table)
+            self.heuristics = navigators.batched_heuristics(self.env_params, table, rows=s.heuristic_rows)
         warm = {} if init_params is None else {"init_params": init_params}
         trainer, mesh = spread(algo.make_train(s.config, self.env, self.env_params, self.net, self.heuristics,
                                                **warm), control, s.config.num_envs)

@@ -77,7 +77,7 @@ def export(name: str, run: str, command: list[str], out: str) -> str:
         "net": learned.net_name, "problem": "dcp", **learned.setting(),
         "min_total_reward": meta["min_total_reward"],
         **{k: meta[k] for k in ("observation", "risk_maps", "map_seeds", "energy_range", "energy_tilt", "item_tilt",
-                                   "init_fraction", *learned_lib.BODY_KEYS) if k in meta},
+                                   "init_fraction", "heuristic_rows", *learned_lib.BODY_KEYS) if k in meta},
         "env": {"start": env.start, "items_on_base": env.items_on_base, "idle_terminates": env.idle_terminates,
                 "item_order": env.item_order},
         "steps": int(last.get("env_steps") or meta["algorithm"]["total_steps"]),

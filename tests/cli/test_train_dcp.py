@@ -200,6 +200,25 @@ def test_config_json_of_a_run_retrains_it_exactly(finished_run, tmp_path):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
 
 
+def test_the_budget_row_is_recorded_and_retrained_by_config(tmp_path, capsys):
+    """``--heuristic-rows 11`` (beyond the thesis: Safe-Budget's row) reaches ENN and the run's config.json;
+    ``--config RUN`` trains the same parameters again, and the loader rebuilds the eleven-row head."""
+    import json
+
+    from jaxdc.dcp import learned
+
+    argv = [*TINY, "--net", "enn", "--steps", "2048", "--heuristic-rows", "11"]
+    first, again = str(tmp_path / "rows"), str(tmp_path / "again")
+    assert cli.main([*argv, "--out", first]) == 0
+    assert json.load(open(os.path.join(first, "config.json")))["heuristic_rows"] == 11
+    assert cli.main(["--config", first, "--eval-every", "2048", "--eval-episodes", "20", "--no-progress",
+                     "--out", again]) == 0
+    nets = [learned.load(run) for run in (first, again)]
+    assert nets[0].heuristic_rows == 11 and nets[0].params["params"]["head"]["weights"]["kernel"].shape[-1] == 99
+    for x, y in zip(jax.tree_util.tree_leaves(nets[0].params), jax.tree_util.tree_leaves(nets[1].params)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+
+
 def test_a_wider_body_is_recorded_and_retrained_by_config(finished_run, tmp_path, capsys):
     """``--body-features``/``--body-hidden`` (beyond the thesis) reach the network and the run's config.json;
     ``--config RUN`` trains the same parameters again, and the loader rebuilds the body from the metadata. A body
@@ -225,3 +244,6 @@ def test_a_wider_body_is_recorded_and_retrained_by_config(finished_run, tmp_path
     capsys.readouterr()  # the runs' reports
     _fails(capsys, [*TINY, "--body-hidden", "16", "--out", str(tmp_path / "linear")],
            "body_hidden=16: network 'linear' has no convolutional body")
+    assert "heuristic_rows" not in thesis  # the thesis' ten rows are not recorded
+    _fails(capsys, [*TINY, "--heuristic-rows", "11", "--out", str(tmp_path / "linear11")],
+           "heuristic_rows=11: network 'linear' reads no heuristics")

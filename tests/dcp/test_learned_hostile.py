@@ -33,6 +33,8 @@ def _copy(tmp_path, **changes):
     ({"body_features": [64, 0]}, "body_features", "in [1, 4096], got 0"),
     ({"body_features": [64, 1.5]}, "body_features", "int"),
     ({"body_hidden": 10**6}, "body_hidden", "4096"),
+    ({"heuristic_rows": 12}, "heuristic_rows", "in [10, 11], got 12"),
+    ({"heuristic_rows": "11"}, "heuristic_rows", "int"),
 ])
 def test_bad_sidecar_setting_names_the_file_and_key(tmp_path, changes, key, words):
     assert_refused_naming_file_and_key(learned_lib.load, _copy(tmp_path, **changes), key, words)
@@ -51,6 +53,8 @@ def test_a_body_the_network_cannot_build_names_the_file(tmp_path):
         learned_lib.load(_copy(tmp_path, body_features=[8] * 7))
     with pytest.raises(ValueError, match="net.msgpack"):
         learned_lib.load(_copy(tmp_path, body_features=[64, 64, 32], body_hidden=512))
+    with pytest.raises(ValueError, match="net.msgpack"):  # ten rows' parameters under a recorded eleventh
+        learned_lib.load(_copy(tmp_path, heuristic_rows=11))
 
 
 def test_shipped_sidecars_pass():

@@ -31,8 +31,8 @@ def _cf(pos, items, rank, cfg=PlannerConfig()):
 
 
 @functools.partial(jax.jit, static_argnames=("name",))
-def _nav(name, state, table):
-    return navigators.policy_action(name, state, table)
+def _nav(name, state, table, max_energy=16.0):
+    return navigators.policy_action(name, state, table, max_energy=max_energy)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -235,3 +235,87 @@ def test_enn_heuristics():
     r = RISK4
     np.testing.assert_allclose(h[9], [r[0, 1], r[0, 1], r[1, 1], 0, r[0, 2], 0, r[0, 2], r[1, 0], r[1, 2]], atol=1e-7)
     assert navigators.HEURISTICS[8] == "distance_to_home" and navigators.HEURISTICS[9] == "risk"
+
+
+# ----------------------------------------------------------------------------------------------
+# Safe-Budget and the eleventh ENN row (beyond the thesis)
+# ----------------------------------------------------------------------------------------------
+
+WALL = risk_with(5, {(r, 2): 0.5 for r in range(4)})  # a wall of risk 0.5 across column 2, open on row 4
+WALL_TABLE = safest_paths(WALL)
+WALL_ENV = DCP(grid_size=5, total_reward=2)
+
+
+def test_safe_budget_takes_the_route_the_energy_allows():
+    """The safest way from the base to (0, 4) goes round the wall (8 moves). With energy 6 of 6 and one item cell,
+    no way home is needed: Safe-Budget crosses the wall (4 moves, lowest action: right) where Safe-Reward, whose
+    route does not fit, stays home. With energy 6 of 16 it stays to recharge: the full battery opens the safe
+    detour. With a second item cell the way home (4 moves) must fit too: 6 - 4 leaves 2 moves, so it stays in the
+    base to recharge; with 12 the detour fits and it takes the table's safest first move."""
+    one = make_state(WALL_ENV, (0, 0), 6, {(0, 4): 1})
+    assert int(_nav("safe_budget", one, WALL_TABLE, 6.0)) == A["right"]
+    assert int(_nav("safe_reward", one, WALL_TABLE, 6.0)) == A["stay"]
+    assert int(_nav("safe_budget", one, WALL_TABLE, 16.0)) == A["stay"]
+    two = make_state(WALL_ENV, (0, 0), 6, {(0, 4): 1, (4, 4): 1}, rank={(0, 4): 0, (4, 4): 1})
+    assert int(_lpg(two.pos, two.items, WALL_TABLE, two.rank).target) == 4
+    assert int(_nav("safe_budget", two, WALL_TABLE)) == A["stay"]
+    full = make_state(WALL_ENV, (0, 0), 12, {(0, 4): 1, (4, 4): 1}, rank={(0, 4): 0, (4, 4): 1})
+    assert int(_nav("safe_budget", full, WALL_TABLE)) == int(WALL_TABLE.next_action[0, 4])
+    # Out in the field with too little energy for any item route: the safest way home that fits.
+    low = make_state(WALL_ENV, (2, 1), 3, {(0, 4): 1, (4, 4): 1}, rank={(0, 4): 0, (4, 4): 1})
+    assert int(_nav("safe_budget", low, WALL_TABLE)) in (A["up"], A["up_left"], A["left"])
+
+
+def test_safe_budget_reaches_the_one_item_optimum_where_the_navigators_do_not():
+    """One item, a small budget, the wall map: Safe-Budget collects the exact optimum's expected reward (value
+    iteration, :func:`jaxdc.dcp.exact.optimal.expected_optimum`) within 3 SE on 4,000 episodes, while the best of the
+    thesis' navigators is more than 10 SE below it."""
+    from jaxdc.dcp.evaluate import evaluate_heuristic
+    from jaxdc.dcp.exact.optimal import expected_optimum, solve_single_item
+
+    env = DCP(grid_size=5, total_reward=1)
+    params = env.make_params(WALL, (4.0, 8.0))
+    optimum = expected_optimum(solve_single_item(WALL, 8.0, 4.0, grid_size=5))
+    key = jax.random.PRNGKey(2)
+    rewards = {name: np.asarray(evaluate_heuristic(env, params, name, key, 4000).ep_reward)
+               for name in ("safe_budget", *navigators.NAVIGATORS)}
+    se = rewards["safe_budget"].std() / np.sqrt(4000)
+    assert abs(rewards["safe_budget"].mean() - optimum) < 3 * se
+    best_navigator = max(rewards[name].mean() for name in navigators.NAVIGATORS)
+    assert best_navigator < optimum - 10 * se
+
+
+def test_eleven_rows_add_safe_budget_to_the_ten():
+    s = make_state(WALL_ENV, (0, 0), 6, {(0, 4): 1})
+    params = WALL_ENV.make_params(WALL, (6.0, 6.0))
+    ten = np.asarray(jax.jit(navigators.enn_heuristics)(s, params, WALL_TABLE))
+    eleven = np.asarray(jax.jit(navigators.enn_heuristics, static_argnames="rows")(s, params, WALL_TABLE, rows=11))
+    assert eleven.shape == (11, 9) and navigators.BUDGET_HEURISTICS[10] == "safe_budget"
+    np.testing.assert_array_equal(eleven[:10], ten)
+    np.testing.assert_array_equal(eleven[10], np.eye(9)[A["right"]])
+    batch = jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), s)
+    assert navigators.batched_heuristics(params, WALL_TABLE, rows=11)(batch).shape == (2, 11, 9)
+
+
+@pytest.mark.parametrize("rows", [9, 12, True, 10.0, "11"])
+def test_other_row_counts_are_refused_by_name(rows):
+    with pytest.raises(ValueError, match=r"rows \(the number of ENN heuristics\) must be one of \(10, 11\)"):
+        navigators.batched_heuristics(PARAMS4, TABLE4, rows=rows)
+
+
+def test_safe_budget_ends_its_episodes_where_going_now_and_recharging_tie():
+    """On maps where half the cells have no risk, going now and recharging first often have the same value: Safe-Budget
+    must not go back and forth between them, so every one-item episode ends (collected, hit or dry) well before the
+    step cap."""
+    from jaxdc.dcp.env import OUTCOMES
+    from jaxdc.dcp.evaluate import evaluate_heuristic
+
+    rng = np.random.default_rng(0)
+    env = DCP(grid_size=6, total_reward=1)
+    for _ in range(3):
+        risk = np.where(rng.uniform(size=(6, 6)) < 0.5, 0.0, rng.uniform(0.0, 0.5, (6, 6))).astype(np.float32)
+        risk[0, 0] = 0.0
+        params = env.make_params(risk, (5.0, 10.0), max_steps=200)
+        final = evaluate_heuristic(env, params, "safe_budget", jax.random.PRNGKey(0), 256)
+        assert not np.any(np.asarray(final.outcome) == OUTCOMES.index("truncated"))
+        assert np.asarray(final.time).max() < 4 * 6 * 6

@@ -95,8 +95,9 @@ def _mean_se(final) -> tuple[float, float]:
 def evaluate_setting(learned, setting: Setting, total_reward: int = 30, episodes: int = 2000, seed: int = 0,
                      optimum: bool = True, specialist: Callable[[Setting], Any] | None = None,
                      greedy: bool = False, bound: bool = False) -> dict:
-    """One row of the grid: the network, the best navigator, the single-item optimum, the specialist and, with
-    ``bound``, the unlimited-energy bound (``total_reward`` <= 20, else ``ValueError``).
+    """One row of the grid: the network, the best of the thesis' four navigators, Safe-Budget (beyond the thesis:
+    :func:`jaxdc.dcp.navigators.safe_budget_action`, with its ratio to that best), the single-item optimum, the
+    specialist and, with ``bound``, the unlimited-energy bound (``total_reward`` <= 20, else ``ValueError``).
 
     Every policy plays the same episode keys (``seed``). Returns a JSON-able dict.
     """
@@ -113,6 +114,9 @@ def evaluate_setting(learned, setting: Setting, total_reward: int = 30, episodes
     row["navigators"] = {n: {"mean": m, "se": se} for n, (m, se) in navs.items()}
     row["best_navigator"] = {"name": best, "mean": navs[best][0], "se": navs[best][1]}
     row["ratio"] = row["net"]["mean"] / navs[best][0] if navs[best][0] > 0 else None
+    # Beyond the thesis' four: Safe-Budget, the navigator whose routes fit the energy (the eleventh ENN row).
+    m, se = _mean_se(evaluate_heuristic(env, params, "safe_budget", key, episodes))
+    row["safe_budget"] = {"mean": m, "se": se, "ratio": m / navs[best][0] if navs[best][0] > 0 else None}
     if bound:
         b = evaluate_bound(env, params, key, episodes)
         row["bound"] = {"mean": b.mean, "se": b.se, "net_share": row["net"]["mean"] / b.mean if b.mean > 0 else None,

@@ -16,7 +16,7 @@ def tiny_general_run(tmp_path_factory):
     rc = train_dcp.main(["--net", "enn", "--observation", "general", "--risk-maps", "bumps", "--map-seeds", "0", "8",
                          "--energy-range", "8", "20", "--energy-tilt", "1.5", "--total-reward", "5", "--steps", "1024",
                          "--envs", "8", "--t-max", "8", "--eval-every", "1024", "--eval-episodes", "16", "--out", out,
-                         "--no-progress"])
+                         "--heuristic-rows", "11", "--no-progress"])
     assert rc == 0
     return out
 
@@ -31,8 +31,10 @@ def test_run_records_its_instances_and_reloads(tiny_general_run):
 
     settings, _ = settings_from_metadata(meta, "config.json")
     assert settings.energy_tilt == 1.5 and settings.energy_range == (8.0, 20.0)
+    assert meta["heuristic_rows"] == 11 and settings.heuristic_rows == 11  # Safe-Budget's row, recorded
     net = learned.load(tiny_general_run)
-    assert net.observation == "general"
+    assert net.observation == "general" and net.heuristic_rows == 11
+    assert net.params["params"]["head"]["weights"]["kernel"].shape[-1] == 11 * 9
     assert gen.training_range(net.metadata) == (8.0, 20.0)
 
 
@@ -61,6 +63,8 @@ def test_cli_writes_the_grid_with_navigators_optimum_and_heat_maps(tiny_general_
     assert [r["source"] for r in payload["rows"]] == ["train", "held-out", "thesis", "thesis", "thesis"]
     for r in payload["rows"]:
         assert r["best_navigator"]["mean"] == max(n["mean"] for n in r["navigators"].values())
+        assert "safe_budget" not in r["navigators"]  # the thesis' four decide the ratio; Safe-Budget stands beside
+        assert r["safe_budget"]["ratio"] == pytest.approx(r["safe_budget"]["mean"] / r["best_navigator"]["mean"])
         assert 0 < r["one_item"]["optimum"] <= 1 and r["one_item"]["net"] <= 1
     assert payload["rows"][0]["map"] == "train 0" and payload["rows"][1]["map"] == "held-out 1073741824"
 
