@@ -18,8 +18,9 @@ moves win among equally safe routes, as the table's tie rule does; it changes a 
 at most ``eps`` per move. The first move of the route from ``c`` within ``h`` moves is the lowest action ``a``
 that minimises ``w(c, a) + eps + C_{h-1}(c'_a)``.
 
-The recursion runs ``N^2 - 1`` times (every simple path has fewer moves), each over ``N^2 x 8`` moves, inside
-:func:`jax.lax.fori_loop`; the rounds past ``h - 1`` leave the costs as they are. Pure and jittable.
+The recursion runs ``min(h, N^2) - 1`` rounds (no simple path has more than ``N^2 - 1`` moves), each over
+``N^2 x 8`` moves, inside :func:`jax.lax.while_loop` (under ``vmap``, as many rounds as the largest budget of the
+batch needs). Pure and jittable.
 """
 
 from __future__ import annotations
@@ -69,15 +70,16 @@ def safest_within(table: PathTable, src: Any, dst: Any, moves: Any) -> Route:
     steps0 = jnp.zeros(m, jnp.int32)
     budget = jnp.clip(jnp.asarray(moves, jnp.int32), 0, m)
 
-    def relax(k, carry):
-        cost, steps = carry
+    def relax(carry):
+        cost, steps, k = carry
         via = w + cost[succ]  # [M, 8]
         best = jnp.argmin(via, axis=1)
         new_cost = jnp.take_along_axis(via, best[:, None], axis=1)[:, 0]
-        better = (new_cost < cost) & (k < budget - 1)
-        return jnp.where(better, new_cost, cost), jnp.where(better, steps[succ[idx, best]] + 1, steps)
+        better = new_cost < cost
+        return jnp.where(better, new_cost, cost), jnp.where(better, steps[succ[idx, best]] + 1, steps), k + 1
 
-    cost, steps = jax.lax.fori_loop(0, m - 1, relax, (cost0, steps0))
+    rounds = jnp.minimum(budget - 1, m - 1)  # C_{h-1}; no simple path has more than N^2 - 1 moves
+    cost, steps, _ = jax.lax.while_loop(lambda c: c[2] < rounds, relax, (cost0, steps0, jnp.int32(0)))
     via = w[src] + cost[succ[src]]  # [8]: each first move, then the best route of at most moves - 1 moves
     best = jnp.argmin(via)
     at_target = src == dst
