@@ -130,6 +130,12 @@ BEYOND["enn_general_tilt"] = dataclasses.replace(
     BEYOND["enn_general"], energy_tilt=1.0,
     description="every map and budget (beyond the thesis: enn_general's recipe with the small budgets weighted, "
                 "energy_tilt 1)")
+# The same recipe with Safe-Budget's eleventh heuristic row (docs/generalisation.md, "Safe-Budget"): the route to
+# LPG's item that the energy allows, beside the ten rows of section 4.4.3; from scratch, seed 0.
+BEYOND["enn_general_budget"] = dataclasses.replace(
+    BEYOND["enn_general_tilt"], heuristic_rows=11,
+    description="every map and budget (beyond the thesis: enn_general_tilt's recipe with Safe-Budget's eleventh "
+                "heuristic row)")
 #: The strong DCG collectors (docs/dcg.md, "Strong collectors"; beyond the thesis): the PPO-style options at
 #: lr 1e-3, 3M steps (``NET_strong``) and the same recipe at the thesis' 1M steps (``NET_strong_1m``, Fig. 5.6).
 DCG_STRONG_RECIPE: dict[str, Any] = {**PPO, "lr": 1e-3, "eval_episodes": 2000}

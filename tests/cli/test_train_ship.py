@@ -109,3 +109,22 @@ def test_the_tilted_general_network_records_its_recipe():
     assert shipped["energy_tilt"] == 1.0 and shipped["energy_range"] == [8.0, 48.0] and shipped["seed"] == 0
     assert shipped["algorithm"] == dataclasses.asdict(settings.config)
     assert "energy_tilt" not in pretrained.read_metadata(pretrained.shipped("dcp", "enn_general"))
+
+
+def test_the_budget_row_network_records_its_recipe():
+    """enn_general_budget: enn_general_tilt's recipe with Safe-Budget's eleventh row; --config enn_general_budget
+    settles to it, and the shipped file records it and loads with an eleven-row head."""
+    from jaxdc import pretrained
+    from jaxdc.cli import train_dcp
+    from jaxdc.cli.train_common import parse_with_config
+    from jaxdc.dcp import learned
+    from jaxdc.training import dcp
+
+    args = parse_with_config(train_dcp.build_parser(), ["--config", "enn_general_budget"], "dcp",
+                             dcp.settings_from_metadata)
+    settings, _ = train_dcp.settle(args)
+    assert settings.heuristic_rows == 11 and settings.energy_tilt == 1.0 and settings.energy_range == (8.0, 48.0)
+    shipped = pretrained.read_metadata(pretrained.shipped("dcp", "enn_general_budget"))
+    assert shipped["heuristic_rows"] == 11 and shipped["seed"] == 0
+    assert learned.load("enn_general_budget").heuristic_rows == 11
+    assert "heuristic_rows" not in pretrained.read_metadata(pretrained.shipped("dcp", "enn_general_tilt"))
