@@ -134,8 +134,8 @@ def safe_budget_action(state, table: PathTable, max_energy, cfg: PlannerConfig =
         table, jnp.stack([z, z, jnp.int32(0)]), jnp.stack([item.target, jnp.int32(0), item.target]),
         jnp.stack([energy - back, energy, full - back]))
     now, home, later = (jax.tree_util.tree_map(functools.partial(_row, i=i), routes) for i in range(3))
-    # Ties go to going now, within BUDGET_TIE_RTOL: on zero-risk cells the two are equal, and float noise
-    # deciding them would send the agent back and forth between the base and its first cell.
+    # Ties go to going now, within BUDGET_TIE_RTOL: on zero-risk cells the two are equal, and float noise deciding
+    # them could send the agent back and forth between the base and its first cell.
     go_now = (item_cells > 0) & now.feasible & (now.success >= (1.0 - BUDGET_TIE_RTOL) * home.success * later.success)
     fast = _home("fast_home", state.pos, n, table, cfg).action
     return jnp.where(go_now, now.action, jnp.where(home.feasible, home.action, fast)).astype(jnp.int32)

@@ -154,7 +154,8 @@ def start_params(s: DCPSettings) -> tuple[Any, str] | None:
     source = learned.load(s.init_from)
     check_same_setting(f"init_from={s.init_from!r} ({source.source})",
                        {"net": (source.net_name, s.net), "grid_size": (source.setting()["grid_size"], s.grid_size),
-                        "observation": (source.observation, s.observation)})
+                        "observation": (source.observation, s.observation),
+                        "heuristic_rows": (source.heuristic_rows, s.heuristic_rows)})
     return source.params, digest(source.params)
 
 

@@ -66,6 +66,8 @@ def test_a_warm_start_of_another_kind_or_onto_its_own_files_is_refused(source, c
             "init_from", "observation is 'thesis'")
     refused(cli.main, ["--net", "eqn", "--grid-size", "4", "--init-from", source, "--out", out], capsys,
             "init_from", "n-step Q-learning")
+    refused(cli.main, ["--net", "enn", "--heuristic-rows", "11", "--init-from", "enn", "--steps", "1024",
+                       "--out", out], capsys, "init_from", "heuristic_rows is 10")  # the thesis' ENN: ten rows
     refused(cli.main, TINY + ["--init-from", source, "--out", source, "--resume"], capsys, "--out")
     refused(cli.main, TINY + ["--init-from", str(tmp_path / "missing"), "--out", out], capsys, "missing")
     assert not os.path.exists(out)
