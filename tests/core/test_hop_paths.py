@@ -40,8 +40,8 @@ def _enumerated(risk, path_risk, src, dst, moves):
 @pytest.mark.parametrize("path_risk", PATH_RISK)
 def test_the_route_is_the_safest_of_at_most_h_moves(path_risk):
     """On random 3x3 and 4x4 maps (some with a risk-1 cell), for random pairs and budgets: the route is feasible
-    exactly when some path of at most ``h`` moves succeeds, has the fewest moves among the safest such paths, and
-    starts with one of their first moves."""
+    exactly when some path of at most ``h`` moves succeeds, has their best success probability and the fewest moves
+    among the safest of them, and starts with one of their first moves."""
     rng = np.random.default_rng(3)
     for trial in range(8):
         n = 3 + trial % 2
@@ -62,6 +62,7 @@ def test_the_route_is_the_safest_of_at_most_h_moves(path_risk):
             else:
                 assert bool(route.feasible), (src, dst, moves)
                 assert int(route.steps) == want[1] and int(route.action) in want[2], (src, dst, moves, want, route)
+                np.testing.assert_allclose(float(route.success), want[0], rtol=1e-4)
 
 
 def test_a_large_budget_gives_the_safest_path_of_the_table():
