@@ -104,7 +104,8 @@ def _row(x, i: int):
     return x[i]
 
 
-def safe_budget_action(state, table: PathTable, max_energy, cfg: PlannerConfig = PlannerConfig()):
+def safe_budget_action(state, table: PathTable, max_energy, cfg: PlannerConfig = PlannerConfig(),
+                       item: Plan | None = None):
     """Safe-Budget (beyond the thesis): Algorithm 9 with LPG's item and routes that fit the energy.
 
     The safest-path heuristics of section 4.4.3 ignore the budget: when the safest path to an item is too long,
@@ -117,11 +118,12 @@ def safe_budget_action(state, table: PathTable, max_energy, cfg: PlannerConfig =
     safest way home within ``e`` moves, then the safest route from the base within ``max_energy - d`` moves (a
     full battery may open a safer detour). Otherwise, or when no route fits, it heads home along the safest route
     the energy allows (in the base: stays, which recharges), and where none fits, along the shortest path.
+    ``item`` is LPG's plan in ``state`` when the caller has it (:func:`enn_heuristics`), else it is computed.
     """
     n = state.items.shape[0]
     cells = n * n
     z = grid.flat_index(state.pos, n)
-    item = _item_plan("lpg", state, table, cfg)
+    item = _item_plan("lpg", state, table, cfg) if item is None else item
     item_cells = jnp.sum(state.items > 0)
     back = jnp.where(item_cells <= 1, 0, grid.chebyshev(grid.unflat_index(item.target, n), jnp.zeros(2, jnp.int32)))
 
@@ -165,10 +167,10 @@ def batched_heuristics(params, table: PathTable, cfg: PlannerConfig = PlannerCon
                                                                                           rows)
 
 
-def check_rows(rows: object) -> int:
-    """``rows`` if it is one of :data:`HEURISTIC_ROWS` (outside jit), else a ``ValueError`` naming it."""
+def check_rows(rows: object, name: str = "rows") -> int:
+    """``rows`` if it is one of :data:`HEURISTIC_ROWS` (outside jit), else a ``ValueError`` naming it (``name``)."""
     if not is_int(rows, numpy=False) or rows not in HEURISTIC_ROWS:
-        raise ValueError(f"rows (the number of ENN heuristics) must be one of {HEURISTIC_ROWS}, got {rows!r}")
+        raise ValueError(f"{name} (the number of ENN heuristics) must be one of {HEURISTIC_ROWS}, got {rows!r}")
     return int(cast(int, rows))
 
 
@@ -200,6 +202,6 @@ def enn_heuristics(state, params, table: PathTable, cfg: PlannerConfig = Planner
     ten = jnp.concatenate([one_hot, dist_home[None], risk[None]], axis=0)
     if rows == len(HEURISTICS):
         return ten
-    budget = jax.nn.one_hot(safe_budget_action(state, table, params.max_energy, cfg), grid.NUM_ACTIONS,
-                            dtype=jnp.float32)
+    budget = jax.nn.one_hot(safe_budget_action(state, table, params.max_energy, cfg, items["lpg"]),
+                            grid.NUM_ACTIONS, dtype=jnp.float32)
     return jnp.concatenate([ten, budget[None]], axis=0)
