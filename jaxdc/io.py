@@ -297,6 +297,11 @@ def _check_folder(folder: str, what: str, given: str) -> None:
         raise ValueError(f"{what} {given!r} cannot be created: {probe!r} is a file")
     if not os.access(probe, os.W_OK | os.X_OK):
         raise ValueError(f"{what} {given!r} is not writable (no permission in {probe!r})")
+    try:  # permission bits do not tell everything (root, a read-only mount, /proc): make and remove a folder there
+        os.rmdir(tempfile.mkdtemp(prefix=".jaxdc-probe-", dir=probe))
+    except OSError as e:
+        raise ValueError(f"{what} {given!r} cannot be written: making a folder in {probe!r} failed "
+                         f"({e.strerror or e})") from None
 
 
 def enable_compilation_cache(path: str | None = None) -> None:

@@ -3,6 +3,7 @@ only fail after the work, JSON nested too deeply."""
 
 from __future__ import annotations
 
+import errno
 import os
 import signal
 
@@ -63,6 +64,27 @@ def test_folder_at_a_file_name_refused(tmp_path):
     (tmp_path / "table.json").mkdir()
     with pytest.raises(ValueError, match="--out file .*table.json.* is a folder"):
         io.check_output_folder(tmp_path, "--out", files=("table.json",))
+
+
+def test_folder_where_no_folder_can_be_made_refused(tmp_path, monkeypatch):
+    """Permission bits do not tell everything (root passes them; a read-only mount, /proc): the check makes and
+    removes a folder, and a failure is refused naming the folder, before any work."""
+    def fail(**kwargs):
+        raise OSError(errno.EROFS, "Read-only file system")
+
+    monkeypatch.setattr(io.tempfile, "mkdtemp", fail)
+    with pytest.raises(ValueError, match=r"--out '.*new' cannot be written: making a folder in .* failed "
+                                         r"\(Read-only file system\)"):
+        io.check_output_folder(tmp_path / "new", "--out")
+    monkeypatch.undo()
+    io.check_output_folder(tmp_path / "new", "--out")  # the probe leaves nothing behind
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc")
+def test_folder_under_proc_refused():
+    with pytest.raises(ValueError, match="'/proc/jaxdc_no_such_folder'"):
+        io.check_output_folder("/proc/jaxdc_no_such_folder", "--out")
 
 
 def test_empty_path_refused():
