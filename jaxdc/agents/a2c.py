@@ -63,6 +63,7 @@ from jaxdc.agents.common import (
     RunConfig,
     Trainer,
     Transition,
+    check_mask,
     check_network,
     first_batch,
     heuristics_fn,
@@ -70,7 +71,9 @@ from jaxdc.agents.common import (
     lr_schedule,
     make_optimizer_from,
     masked_logits,
+    no_heuristics,
     nstep_returns,
+    team_size,
 )
 from jaxdc.core.env import Environment, step_batch
 from jaxdc.core.tree_check import check_like
@@ -271,43 +274,6 @@ def make_policy(net: Network, params: Any, heuristics: Callable | None = None, g
 
 
 # -- training -----------------------------------------------------------------------------
-def team_size(env: Environment) -> int | None:
-    """``k`` for an environment that takes one action per agent (``env.action_shape == (k,)``, e.g.
-    :class:`jaxdc.dcg.team.DCGTeam`), ``None`` for a one-agent environment (no ``action_shape``)."""
-    shape = getattr(env, "action_shape", None)
-    if shape is None:
-        return None
-    if len(shape) != 1:
-        raise ValueError(f"{type(env).__name__}.action_shape is {shape}: the trainer takes one agent axis (k,)")
-    return int(shape[0])
-
-
-def _no_heuristics(num_actions: int, agents: int) -> Callable:
-    """Zero heuristics ``[B * k, 1, A]`` for the rows of a team batch (its networks read none)."""
-
-    def zeros(env_states):
-        b = jax.tree_util.tree_leaves(env_states)[0].shape[0]
-        return jnp.zeros((b * agents, 1, num_actions), jnp.float32)
-
-    return zeros
-
-
-def _check_mask(mask: Any, env: Environment, env_params: Any, net: Network, agents: int | None) -> None:
-    """Refuse, outside jit, a ``mask`` that is not ``state -> bool [num_actions]`` for one state of ``env`` (traced
-    abstractly on a reset state), or any mask on a team."""
-    if agents is not None:
-        raise ValueError(f"mask: an action mask plays one agent's state, not a team of {agents} "
-                         f"({type(env).__name__})")
-    if not callable(mask):
-        raise TypeError(f"mask must be a function state -> bool [{net.num_actions}] (e.g. "
-                        f"jaxdc.core.masks.make_mask), got {mask!r}")
-    state = jax.eval_shape(lambda k: env.reset(k, env_params)[1], jax.random.PRNGKey(0))
-    out = jax.eval_shape(mask, state)
-    if getattr(out, "shape", None) != (net.num_actions,) or getattr(out, "dtype", None) != jnp.bool_:
-        raise ValueError(f"mask must return bool [{net.num_actions}] for one state (one flag per action), got "
-                         f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}")
-
-
 def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Network, heuristics: Callable | None = None,
                aux_target: Callable | None = None, init_params: Any = None, critic: Any = None,
                mask: Callable | None = None) -> Trainer:
@@ -345,7 +311,7 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
                              f"{agents} agents) does not give; train a network without them")
         if heuristics is not None:
             raise ValueError(f"heuristics: a team environment ({type(env).__name__}) takes none, got {heuristics!r}")
-        heuristics = _no_heuristics(net.num_actions, agents)
+        heuristics = no_heuristics(net.num_actions, agents)
     heuristics = heuristics_fn(check_network(net), heuristics)
     k = agents or 1
     # a team's [B, k, ...] arrays as k rows per environment, and an environment's [B] values per row
@@ -353,7 +319,7 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
     per_agent = (lambda x: x) if agents is None else (lambda x: jnp.repeat(x, k, axis=0))
     by_env = (lambda x: x) if agents is None else (lambda x: x.reshape((-1, k)))
     if mask is not None:
-        _check_mask(mask, env, env_params, net, agents)
+        check_mask(mask, env, env_params, net, agents)
     if net.has_aux and aux_target is None:
         raise ValueError(f"{type(net).__name__} has an auxiliary head: pass aux_target=info -> labels [B] "
                          "(for the DCG: lambda info: info['opponent_action'])")

@@ -14,7 +14,9 @@ state, and take Adam steps with the learning rate annealed linearly to 0 over
 * :class:`Network`: the attributes a trainer reads from a network;
   :func:`heuristics_fn`, the heuristics hook;
 * :class:`Trainer`: what ``make_train`` returns (:meth:`Trainer.of` builds it); :func:`first_batch`, a run's
-  start.
+  start;
+* :func:`team_size` and :func:`no_heuristics` for an environment of ``k`` agents; :func:`masked_logits` and
+  :func:`check_mask` for an action mask.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
+from jaxdc.core.env import Environment
 from jaxdc.core.validate import INT32_MAX, check_float, check_positive_int
 
 
@@ -296,3 +299,41 @@ def masked_logits(logits: jax.Array, allowed: jax.Array | None) -> jax.Array:
     if allowed is None:
         return logits
     return jnp.where(allowed, logits, jnp.finfo(logits.dtype).min)
+
+
+# -- teams and masks ------------------------------------------------------------------------
+def team_size(env: Environment) -> int | None:
+    """``k`` for an environment that takes one action per agent (``env.action_shape == (k,)``, e.g.
+    :class:`jaxdc.dcg.team.DCGTeam`), ``None`` for a one-agent environment (no ``action_shape``)."""
+    shape = getattr(env, "action_shape", None)
+    if shape is None:
+        return None
+    if len(shape) != 1:
+        raise ValueError(f"{type(env).__name__}.action_shape is {shape}: the trainer takes one agent axis (k,)")
+    return int(shape[0])
+
+
+def no_heuristics(num_actions: int, agents: int) -> Callable:
+    """Zero heuristics ``[B * k, 1, A]`` for the rows of a team batch (its networks read none)."""
+
+    def zeros(env_states):
+        b = jax.tree_util.tree_leaves(env_states)[0].shape[0]
+        return jnp.zeros((b * agents, 1, num_actions), jnp.float32)
+
+    return zeros
+
+
+def check_mask(mask: Any, env: Environment, env_params: Any, net: Network, agents: int | None) -> None:
+    """Refuse, outside jit, a ``mask`` that is not ``state -> bool [num_actions]`` for one state of ``env`` (traced
+    abstractly on a reset state), or any mask on a team."""
+    if agents is not None:
+        raise ValueError(f"mask: an action mask plays one agent's state, not a team of {agents} "
+                         f"({type(env).__name__})")
+    if not callable(mask):
+        raise TypeError(f"mask must be a function state -> bool [{net.num_actions}] (e.g. "
+                        f"jaxdc.core.masks.make_mask), got {mask!r}")
+    state = jax.eval_shape(lambda k: env.reset(k, env_params)[1], jax.random.PRNGKey(0))
+    out = jax.eval_shape(mask, state)
+    if getattr(out, "shape", None) != (net.num_actions,) or getattr(out, "dtype", None) != jnp.bool_:
+        raise ValueError(f"mask must return bool [{net.num_actions}] for one state (one flag per action), got "
+                         f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}")

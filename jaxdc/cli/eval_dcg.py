@@ -48,9 +48,10 @@ import jax
 
 from jaxdc import pretrained
 from jaxdc.cli import eval_dcg_energies as energies
+from jaxdc.cli import eval_dcg_optimum as optimum
 from jaxdc.cli import runner
 from jaxdc.cli.args import check_run_seed, integer, positive_float, positive_int, seed
-from jaxdc.cli.eval_dcg_settings import EvaluateSettings, FigureSettings, OptimumSettings, RenderSettings
+from jaxdc.cli.eval_dcg_settings import EvaluateSettings, FigureSettings, RenderSettings
 from jaxdc.cli.runner import run
 from jaxdc.core.energy import MAX_FINITE_ENERGY
 from jaxdc.core.masks import MASKS
@@ -64,9 +65,6 @@ from jaxdc.dcg.analysis.report import (
     figure_csv,
     figure_markdown,
     figure_payload,
-    optimum_name,
-    optimum_payload,
-    optimum_text,
     report,
     result_name,
     source_stem,
@@ -74,12 +72,8 @@ from jaxdc.dcg.analysis.report import (
     team_result_name,
 )
 from jaxdc.dcg.analysis.team import evaluate_learned as evaluate_learned_team
-from jaxdc.dcg.env import CAPTURES, DCG, OPPONENT_STARTS, OUTCOMES, PATROL_TARGETS
-from jaxdc.dcg.exact.machine import MAX_GRID_SIZE
-from jaxdc.dcg.exact.many_items import sampled_bound
-from jaxdc.dcg.exact.team import FOG_TARGETS
-from jaxdc.dcg.exact.team import sampled_bound as team_bound
-from jaxdc.dcg.opponents import CHASE_TIES, DOUBLE_BLIND_STRATEGIES, STANDARD_STRATEGIES, get_strategies
+from jaxdc.dcg.env import OUTCOMES
+from jaxdc.dcg.opponents import DOUBLE_BLIND_STRATEGIES, get_strategies
 from jaxdc.dcg.team.policies import copies
 from jaxdc.dcg.team.state import MAX_COLLECTORS
 from jaxdc.io import (
@@ -106,8 +100,6 @@ MAX_COLS = 1000
 MAX_FPS = 60
 #: Most steps a ``render`` plays (every step is a drawn frame).
 MAX_RENDER_STEPS = 1000
-#: Most unit rewards ``optimum`` drops (each sampled game holds every unit while it is dropped).
-MAX_TOTAL_REWARD = 1000
 
 
 # -- argument types and groups ------------------------------------------------------------------
@@ -230,42 +222,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=os.path.join(RESULTS, "render"), help="folder for the PNG and GIF")
     p.set_defaults(run=_render, error=p.error)
 
-    p = sub.add_parser("optimum", prog=f"{PROG} optimum", help="estimate the full-information bound",
-                       description="Estimate the full-information bound of the DCG over sampled games: the "
-                                   "most reward any collector could take from each game, knowing the "
-                                   "opponent's strategy and hidden state (jaxdc.dcg.exact.many_items).")
-    p.add_argument("--grid-size", type=integer("--grid-size", low=2, high=MAX_GRID_SIZE), default=5,
-                   help=f"N (5 in the thesis; 2..{MAX_GRID_SIZE} for the exact search)")
-    p.add_argument("--total-reward", type=positive_int("--total-reward", high=MAX_TOTAL_REWARD), default=10,
-                   help=f"unit rewards dropped (10; at most {MAX_TOTAL_REWARD})")
-    p.add_argument("--energy", type=_energy(), default=15.0,
-                   help="maximum energy, a whole number or inf (15; 10/20 in Figs. 5.8-5.9)")
-    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=100, help="step cap (100)")
-    p.add_argument("--chase-tie", choices=CHASE_TIES[:2], default=CHASE_TIES[0],
-                   help="tie rule of 'moves towards' (deterministic ones only)")
-    _add_strategy_set(p, STANDARD_STRATEGIES, "the standard set of 5.5.1")
-    p.add_argument("--opponent-start", choices=OPPONENT_STARTS, default=OPPONENT_STARTS[0])
-    p.add_argument("--patrol-target", choices=PATROL_TARGETS, default=PATROL_TARGETS[0])
-    p.add_argument("--no-items-on-base", action="store_true", help="the drop leaves the base empty")
-    p.add_argument("--no-reward-when-caught", action="store_true",
-                   help="an item taken on the step the collector is caught does not count")
-    p.add_argument("--capture", choices=CAPTURES, default=CAPTURES[0],
-                   help="rule reading: 'opponent_moves' captures only when the opponent moves onto the collector")
-    p.add_argument("--safe-base", action="store_true", help="rule reading: no capture in the base")
-    p.add_argument("--opponent-out-of-base", action="store_true",
-                   help="rule reading: the opponent may not enter the base")
-    p.add_argument("--collectors", type=integer("--collectors", low=1, high=2), default=1,
-                   help="collectors in the team (1..2; 2: jaxdc.dcg.exact.team, exact where the search fits, "
-                        "else its documented upper bound)")
-    p.add_argument("--fog-target", choices=FOG_TARGETS, default=FOG_TARGETS[0],
-                   help="with --collectors 2: the fog strategies' target reading (docs/dcg.md)")
-    p.add_argument("--episodes", type=positive_int("--episodes"), default=2000, help="sampled games (2000)")
-    p.add_argument("--seed", type=seed("--seed"), default=0, help="the games' PRNG key")
-    p.add_argument("--no-progress", action="store_true")
-    p.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
-    p.add_argument("--out", default=RESULTS, help="folder for the result JSON")
-    p.set_defaults(run=_optimum, error=p.error)
-
+    optimum.add_parser(sub, PROG, RESULTS, _energy, _add_strategy_set)
     energies.add_parser(sub, PROG, _add_network, RESULTS, _add_mask)
     return parser
 
@@ -437,35 +394,6 @@ def _render_paths(s: RenderSettings, net_name: str) -> tuple[str, str]:
     stem = (f"dcg_{net_name}_{s.strategy}" + ("" if s.run_seed is None else f"_run{s.run_seed}") + f"_s{s.seed}"
             + ("_greedy" if s.greedy else "") + (f"_area{s.reward_area}" if s.reward_area else ""))
     return os.path.join(s.out, stem + ".png"), os.path.join(s.out, stem + ".gif")
-
-
-def _optimum(args, command) -> int:
-    _check_folders(args, "--out")
-    try:
-        s = OptimumSettings.from_args(args)
-    except ValueError as e:
-        args.error(str(e))
-    try:
-        env = DCG(**s.game)
-        params = env.make_params(energy=s.energy, max_steps=s.max_steps, chase_tie=s.chase_tie)
-        if s.collectors == 1:
-            res = sampled_bound(env, params, jax.random.PRNGKey(s.seed), s.episodes, progress=s.progress)
-        else:
-            res = team_bound(env, params, jax.random.PRNGKey(s.seed), s.episodes, fog_target=s.fog_target,
-                             progress=s.progress)
-    except (TypeError, ValueError, NotImplementedError) as e:
-        args.error(str(e))
-    out = optimum_payload(res, env, energy=s.energy, max_steps=s.max_steps, chase_tie=s.chase_tie, seed=s.seed,
-                          command=command)
-    path = os.path.join(s.out, optimum_name(out, s.episodes))
-    line = json_text(out, indent=None)
-    atomic_write_json(path, {**out, "provenance": provenance()})
-    if s.json:
-        print(line)
-    else:
-        print(optimum_text(out["optimum"], s.episodes))
-        print(f"written {path}")
-    return 0
 
 
 def _main(argv) -> int:

@@ -48,7 +48,6 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-from flax import struct
 
 from jaxdc.core import grid
 from jaxdc.core.energy import (
@@ -63,15 +62,12 @@ from jaxdc.core.energy import (
 from jaxdc.core.env import Environment, Transition
 from jaxdc.core.sampling import MAX_RANGE, MAX_TOTAL_REWARD, drop_units, uniform_index
 from jaxdc.core.scene import Scene
-from jaxdc.core.validate import INT32_MAX, check_choice, check_int, is_int
+from jaxdc.core.validate import INT32_MAX, check_bool, check_choice, check_int, is_int
 from jaxdc.dcg import opponents as opp_lib
 from jaxdc.dcg import picture
 from jaxdc.dcg.observation import CollectorObservation
 from jaxdc.dcg.opponents import CHASE_TIES, STANDARD_STRATEGIES, OpponentState
-
-#: How an episode ended; ``info["outcome"]`` holds the index.
-OUTCOMES = ("running", "caught", "energy", "cleared", "truncated")
-RUNNING, CAUGHT, ENERGY, CLEARED, TRUNCATED = range(len(OUTCOMES))
+from jaxdc.dcg.types import CAUGHT, CLEARED, ENERGY, OUTCOMES, RUNNING, TRUNCATED, EnvParams, EnvState
 
 #: Where the opponent starts ("the locations of the opponent and items are randomly selected").
 OPPONENT_STARTS = ("not_base", "any")
@@ -92,34 +88,6 @@ MIN_RANGE_ENERGY = 1.0
 #: The key of an episode's budget draw is ``fold_in(reset key, ENERGY_STREAM)``: the rest of the reset draws as
 #: without a range, so a range ``(E, E)`` plays the same games as the fixed energy ``E``.
 ENERGY_STREAM = 0x454E
-
-
-@struct.dataclass
-class EnvParams:
-    """Numeric settings; every leaf may differ across a ``vmap`` batch. Build with :meth:`DCG.make_params`."""
-
-    max_energy: jax.Array  # float32; the collector starts with it and refills to it in the base
-    max_steps: jax.Array  # int32 step cap (truncation)
-    chase_tie: jax.Array  # int32 index into opponents.CHASE_TIES
-    # Beyond the thesis: [2] float32, each episode's maximum energy is an int drawn from [low, high] (None: max_energy)
-    energy_range: jax.Array | None = None
-    # Beyond the thesis: float32 power-law tilt of that draw (core.energy.draw_max_energy; None: uniform)
-    energy_tilt: jax.Array | None = None
-
-
-@struct.dataclass
-class EnvState:
-    pos: jax.Array  # [2] int32 collector (row, col)
-    energy: jax.Array  # float32
-    items: jax.Array  # [N, N] float32 reward per cell
-    opponent: OpponentState
-    strategy: jax.Array  # int32 index into DCG.strategies (this episode's strategy)
-    history: jax.Array  # [N, N, k] float32: observed agent planes M_{t-1} .. M_{t-k}
-    time: jax.Array  # int32 steps taken in this episode
-    outcome: jax.Array  # int32 index into OUTCOMES
-    ep_reward: jax.Array  # float32
-    ep_energy: jax.Array  # int32 energy consumed so far (see ENERGY_METRICS)
-    max_energy: jax.Array | None = None  # float32 this episode's maximum energy (with params.energy_range only)
 
 
 class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
@@ -225,11 +193,8 @@ class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
         self.capture = check_choice("capture", capture, CAPTURES)
         self.caught_energy = check_choice("caught_energy", caught_energy, CAUGHT_ENERGIES)
         self.observation = check_choice("observation", observation, OBSERVATIONS)
-        for name, v in (("safe_base", safe_base), ("opponent_enters_base", opponent_enters_base)):
-            if not isinstance(v, (bool, np.bool_)):
-                raise TypeError(f"{name} must be a bool, got {v!r}")
-        self.safe_base = bool(safe_base)
-        self.opponent_enters_base = bool(opponent_enters_base)
+        self.safe_base = check_bool("safe_base", safe_base)
+        self.opponent_enters_base = check_bool("opponent_enters_base", opponent_enters_base)
         if not self.opponent_enters_base and self.opponent_start != "not_base":
             raise ValueError(f"opponent_enters_base=False needs opponent_start='not_base', got {opponent_start!r}")
 
@@ -439,17 +404,7 @@ class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
             pos=pos, energy=energy, items=items, opponent=opp, history=history, time=time, outcome=outcome,
             ep_reward=state.ep_reward + reward, ep_energy=state.ep_energy + used.astype(jnp.int32),
         )
-        terminated = (outcome != RUNNING) & (outcome != TRUNCATED)
-        truncated = outcome == TRUNCATED
-        info = {
-            "outcome": outcome,
-            "opponent_action": o_t,
-            "strategy": state.strategy,
-            "episode_reward": new_state.ep_reward,
-            "episode_energy": new_state.ep_energy,
-            "episode_steps": time,
-            "invalid_action": invalid,
-        }
+        terminated, truncated, info = end_of_step(new_state, o_t, invalid)
         return self.observe(new_state, params), new_state, reward, terminated, truncated, info
 
     # -- pictures (outside jit; jaxdc.dcg.picture) ----------------------------------------
@@ -460,3 +415,15 @@ class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
     def scene(self, state: EnvState, params: EnvParams) -> Scene:
         """The layers of a frame (:func:`jaxdc.dcg.picture.scene`): items, collector, opponent, fog."""
         return picture.scene(self, state, params)
+
+
+def end_of_step(state: Any, opponent_action: jax.Array, invalid: jax.Array) -> tuple[jax.Array, jax.Array, dict]:
+    """``(terminated, truncated, info)`` after a step that led to ``state`` (a game's, or a team's with the same
+    fields): terminated once the game is decided (its outcome is neither running nor the step cap's), truncated
+    at the cap; ``info`` holds the outcome, the opponent's action, the episode's strategy, its running totals and
+    whether the action was clipped. Shared by :class:`DCG` and :class:`jaxdc.dcg.team.DCGTeam`."""
+    outcome = state.outcome
+    info = {"outcome": outcome, "opponent_action": opponent_action, "strategy": state.strategy,
+            "episode_reward": state.ep_reward, "episode_energy": state.ep_energy, "episode_steps": state.time,
+            "invalid_action": invalid}
+    return (outcome != RUNNING) & (outcome != TRUNCATED), outcome == TRUNCATED, info

@@ -4,6 +4,7 @@ its opponent accuracy and --ship, clear errors."""
 from __future__ import annotations
 
 import csv
+import functools
 import os
 
 import jax
@@ -14,7 +15,7 @@ from jaxdc import checkpoint, pretrained
 from jaxdc.cli import train_dcg as cli
 from jaxdc.core.rollout import run_episodes
 from jaxdc.nets import make_dcg_net
-from tests.support.cli_checks import refused, resumes_exactly, tiny_run
+from tests.support.cli_checks import refused, restore_run, resumes_exactly, tiny_run
 
 # 3x3 grid, 3 items, the restricted chaser, k = 2; 150 updates of 16 envs x 8 steps, checkpoints at 75 and 150.
 TINY = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies", "restricted", "--history", "2",
@@ -40,11 +41,6 @@ def emnn_run(tmp_path_factory):
     return out
 
 
-def _restore(out):
-    run = cli.Run(cli.build_parser().parse_args(TINY + ["--out", out]))
-    state, _ = checkpoint.restore(run.ckpt_dir, run.trainer.init(jax.random.PRNGKey(0)), run.metadata)
-    return state
-
 
 def _rows(out):
     with open(os.path.join(out, "metrics.csv")) as f:
@@ -65,7 +61,7 @@ def test_tiny_run_beats_the_uniform_policy(finished_run):
 
 
 def test_resume_ends_with_the_same_parameters(finished_run, tmp_path):
-    out = resumes_exactly(cli.main, TINY, finished_run, tmp_path, 150, _restore)
+    out = resumes_exactly(cli.main, TINY, finished_run, tmp_path, 150, functools.partial(restore_run, cli, TINY))
     assert [r["eval_reward"] for r in _rows(out)] == [r["eval_reward"] for r in _rows(finished_run)]
 
 
@@ -124,7 +120,7 @@ def test_seeds_run_vmapped_and_seed_0_equals_the_single_run(finished_run, tmp_pa
     assert cli.main(TINY + ["--out", out, "--seeds", "0,3"]) == 0
     run = cli.Run(cli.build_parser().parse_args(TINY + ["--out", out, "--seeds", "0,3"]))
     multi, _ = checkpoint.restore(run.ckpt_dir, run.trainer.init(run.init_key()), run.metadata)
-    single = _restore(finished_run)
+    single = restore_run(cli, TINY, finished_run)
     for x, y in zip(jax.tree_util.tree_leaves(single.params), jax.tree_util.tree_leaves(multi.params)):
         np.testing.assert_allclose(np.asarray(x), np.asarray(y)[0], rtol=1e-4, atol=1e-5)
     assert not np.allclose(*np.asarray(jax.tree_util.tree_leaves(multi.params)[0]))

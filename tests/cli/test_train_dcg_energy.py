@@ -15,11 +15,10 @@ from jaxdc import pretrained
 from jaxdc.cli import eval_dcg
 from jaxdc.cli import train_dcg as cli
 from jaxdc.cli.eval_dcg_energies import network_label
-from jaxdc.cli.train_common import parse_with_config
 from jaxdc.core.tree_check import digest
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.training import dcg, presets
-from tests.support.cli_checks import refused, tiny_run
+from tests.support.cli_checks import refused, settle, tiny_run
 
 # 3x3 grid, 3 items, the restricted chaser, VNN (no history planes); one update of 16 envs x 8 steps.
 TINY = ["--net", "vnn", "--grid-size", "3", "--total-reward", "3", "--strategies", "restricted", "--max-steps", "20",
@@ -33,21 +32,18 @@ def run_dir(tmp_path_factory):
     return tiny_run(cli.main, TINY, tmp_path_factory)
 
 
-def _settle(argv):
-    return cli.settle(parse_with_config(cli.build_parser(), argv, "dcg", dcg.settings_from_metadata))
-
 
 def test_the_run_records_the_range_and_config_reproduces_it(run_dir):
     with open(os.path.join(run_dir, "config.json")) as f:
         meta = json.load(f)
     assert meta["energy_range"] == [3.0, 8.0] and meta["energy_tilt"] == 1.5 and meta["observation"] == "general"
     assert meta["mask"] == "reach_base"
-    settings, _ = _settle(TINY + ["--out", run_dir])
-    again, _ = _settle(["--config", os.path.join(run_dir, "config.json"), "--eval-episodes", "16"])
+    settings, _ = settle(cli, "dcg", TINY + ["--out", run_dir])
+    again, _ = settle(cli, "dcg", ["--config", os.path.join(run_dir, "config.json"), "--eval-episodes", "16"])
     assert again == settings and again.energy_range == (3.0, 8.0) and again.observation == "general"
     assert again.energy_tilt == 1.5 and again.mask == "reach_base"
     # the faithful default writes none of the keys
-    plain, _ = _settle(["--net", "vnn"])
+    plain, _ = settle(cli, "dcg", ["--net", "vnn"])
     assert not {"energy_range", "energy_tilt", "mask"} & set(dcg.run_metadata(plain, dcg.DCG(), [0]))
     assert plain.observation == "thesis" and plain.energy_tilt == 0.0 and plain.mask == "none"
 
@@ -87,7 +83,7 @@ def test_energies_files_are_named_after_the_network_as_given(given, label):
 
 
 def test_the_named_recipe_settles():
-    settings, _ = _settle(["--config", "omn_conn_general"])
+    settings, _ = settle(cli, "dcg", ["--config", "omn_conn_general"])
     assert settings.energy_range == (8.0, 25.0) and settings.observation == "general" and settings.net == "omn_conn"
     assert presets.EVERY["omn_conn_general"].flags()[:2] == ["--net", "omn_conn"]
 
@@ -95,7 +91,7 @@ def test_the_named_recipe_settles():
 def test_the_long_general_collector_records_its_recipe_and_the_file_it_started_from():
     """omn_conn_general_long: the named config's settings, started from the shipped omn_conn_general -- the
     recorded SHA-256 is that of the shipped file's parameters (a retrained or replaced source would differ)."""
-    settings, _ = _settle(["--config", "omn_conn_general_long"])
+    settings, _ = settle(cli, "dcg", ["--config", "omn_conn_general_long"])
     assert settings.init_from == "omn_conn_general" and settings.config.total_steps == 10_000_000
     assert settings.config.lr == 3e-4 and settings.energy_range == (8.0, 25.0) and settings.observation == "general"
     shipped = pretrained.read_metadata(pretrained.shipped("dcg", "omn_conn_general_long"))
@@ -106,7 +102,7 @@ def test_the_long_general_collector_records_its_recipe_and_the_file_it_started_f
 
 def test_the_tilted_general_collector_records_its_recipe_and_the_file_it_started_from():
     """omn_conn_general_tilt: omn_conn_general_long trained on with energy_tilt 2, from the shipped file."""
-    settings, _ = _settle(["--config", "omn_conn_general_tilt"])
+    settings, _ = settle(cli, "dcg", ["--config", "omn_conn_general_tilt"])
     assert settings.init_from == "omn_conn_general_long" and settings.energy_tilt == 2.0
     assert settings.config.total_steps == 5_000_000 and settings.config.lr == 2e-4
     shipped = pretrained.read_metadata(pretrained.shipped("dcg", "omn_conn_general_tilt"))
@@ -118,7 +114,7 @@ def test_the_tilted_general_collector_records_its_recipe_and_the_file_it_started
 def test_the_masked_general_collector_records_its_recipe_and_plays_under_its_mask():
     """omn_conn_general_masked: omn_conn_general_tilt trained on under reach_base_or_item, from the shipped file;
     loaded, it plays under that mask."""
-    settings, _ = _settle(["--config", "omn_conn_general_masked"])
+    settings, _ = settle(cli, "dcg", ["--config", "omn_conn_general_masked"])
     assert settings.init_from == "omn_conn_general_tilt" and settings.mask == "reach_base_or_item"
     assert settings.energy_tilt == 2.0 and settings.config.total_steps == 4_000_000
     learned = learned_lib.shipped("omn_conn_general_masked")

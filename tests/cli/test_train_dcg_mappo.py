@@ -3,21 +3,21 @@ when set, reproduced by --config and --resume, shipped and loaded as the actor a
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 
 import jax
 import pytest
 
-from jaxdc import checkpoint, pretrained
+from jaxdc import pretrained
 from jaxdc.agents.centralised import CRITIC
 from jaxdc.cli import train_dcg as cli
-from jaxdc.cli.train_common import parse_with_config
 from jaxdc.core.tree_check import digest
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis import team
 from jaxdc.training import dcg
-from tests.support.cli_checks import refused, resumes_exactly
+from tests.support.cli_checks import refused, restore_run, resumes_exactly, settle
 
 # 2 updates of 8 envs x 8 steps, a checkpoint after each
 TINY = ["--net", "omn_conn", "--collectors", "2", "--algo", "mappo", "--grid-size", "4", "--total-reward", "4",
@@ -32,42 +32,34 @@ def run_dir(tmp_path_factory):
     return out
 
 
-def _settle(argv):
-    return cli.settle(parse_with_config(cli.build_parser(), argv, "dcg", dcg.settings_from_metadata))
-
-
-def _restore(out):
-    run = cli.Run(cli.build_parser().parse_args(TINY + ["--out", out]))
-    state, _ = checkpoint.restore(run.ckpt_dir, run.trainer.init(jax.random.PRNGKey(0)), run.metadata)
-    return state
 
 
 def test_the_run_records_mappo_and_config_reproduces_it(run_dir):
     with open(os.path.join(run_dir, "config.json")) as f:
         meta = json.load(f)
     assert meta["algo"] == "mappo" and meta["collectors"] == 2
-    settings, _ = _settle(TINY + ["--out", run_dir])
-    again, _ = _settle(["--config", os.path.join(run_dir, "config.json"), "--eval-episodes", "16"])
+    settings, _ = settle(cli, "dcg", TINY + ["--out", run_dir])
+    again, _ = settle(cli, "dcg", ["--config", os.path.join(run_dir, "config.json"), "--eval-episodes", "16"])
     assert again == settings and again.algo == "mappo"
     # a flag given with --config overrides it
-    assert _settle(["--config", run_dir, "--algo", "ippo"])[0].algo == "ippo"
+    assert settle(cli, "dcg", ["--config", run_dir, "--algo", "ippo"])[0].algo == "ippo"
 
 
 def test_ippo_is_the_default_and_is_not_recorded():
     """Old runs' config.json files are unchanged: the default writes no "algo" key."""
-    settings, control = _settle(TINY[:4] + ["--out", "unused"])
+    settings, control = settle(cli, "dcg", TINY[:4] + ["--out", "unused"])
     assert settings.algo == "ippo" and "algo" not in dcg.run_metadata(settings, dcg.make_env(settings)[0], [0])
-    mappo, mappo_control = _settle(TINY)
+    mappo, mappo_control = settle(cli, "dcg", TINY)
     assert dcg.run_metadata(mappo, dcg.make_env(mappo)[0], [0])["algo"] == "mappo"
     assert mappo_control.out.endswith("dcg-omn_conn-k2-mappo-e15-s0")
-    assert _settle(TINY[:4])[1].out.endswith("dcg-omn_conn-k2-e15-s0")
+    assert settle(cli, "dcg", TINY[:4])[1].out.endswith("dcg-omn_conn-k2-e15-s0")
 
 
 def test_the_shipped_team2_mappo_records_its_recipe_and_holds_the_actor_alone():
     """team2_mappo: the named config is team2's with algo mappo; the shipped file records it, the SHA-256 of the
     shipped omn_conn_strong it started from, and holds the actor only (no critic), playing as a team of two."""
-    settings, _ = _settle(["--config", "team2_mappo"])
-    team2, _ = _settle(["--config", "team2"])
+    settings, _ = settle(cli, "dcg", ["--config", "team2_mappo"])
+    team2, _ = settle(cli, "dcg", ["--config", "team2"])
     assert settings.algo == "mappo" and team2.algo == "ippo"
     assert settings.config == team2.config and settings.collectors == team2.collectors == 2
     assert settings.init_from == team2.init_from == "omn_conn_strong"
@@ -84,9 +76,9 @@ def test_the_shipped_team2_mappo_records_its_recipe_and_holds_the_actor_alone():
 
 
 def test_the_checkpoint_holds_the_critic_and_a_resume_is_exact(run_dir, tmp_path):
-    state = _restore(run_dir)
+    state = restore_run(cli, TINY, run_dir)
     assert CRITIC in state.params["params"]
-    resumes_exactly(cli.main, TINY, run_dir, tmp_path, 2, _restore)
+    resumes_exactly(cli.main, TINY, run_dir, tmp_path, 2, functools.partial(restore_run, cli, TINY))
 
 
 def test_the_shipped_network_is_the_actor_and_loads_as_a_policy(run_dir):
@@ -106,7 +98,7 @@ def test_the_shipped_network_is_the_actor_and_loads_as_a_policy(run_dir):
 
 def test_a_parameter_file_holding_the_critic_loads_too(run_dir, tmp_path):
     """Loading works either way: a file saved with the whole trained tree plays its actor."""
-    state = _restore(run_dir)
+    state = restore_run(cli, TINY, run_dir)
     meta = pretrained.read_metadata(os.path.join(run_dir, "net.msgpack"))
     path = pretrained.save(str(tmp_path / "whole.msgpack"), state.params, meta)
     learned = learned_lib.load(path)

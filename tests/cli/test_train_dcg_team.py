@@ -10,13 +10,12 @@ import jax
 import pytest
 
 from jaxdc.cli import train_dcg as cli
-from jaxdc.cli.train_common import parse_with_config
 from jaxdc.core.tree_check import digest
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis import team
 from jaxdc.dcg.team import DCGTeam
 from jaxdc.training import dcg
-from tests.support.cli_checks import refused, tiny_run
+from tests.support.cli_checks import refused, settle, tiny_run
 
 TINY = ["--net", "omn_conn", "--collectors", "2", "--grid-size", "4", "--total-reward", "4", "--strategies",
         "patrol", "--history", "2", "--max-steps", "20", "--steps", "128", "--envs", "8", "--t-max", "8",
@@ -28,17 +27,14 @@ def run_dir(tmp_path_factory):
     return tiny_run(cli.main, TINY, tmp_path_factory)
 
 
-def _settle(argv):
-    return cli.settle(parse_with_config(cli.build_parser(), argv, "dcg", dcg.settings_from_metadata))
-
 
 def test_the_run_records_the_team_and_config_reproduces_it(run_dir):
     with open(os.path.join(run_dir, "config.json")) as f:
         assert json.load(f)["collectors"] == 2
-    settings, _ = _settle(TINY + ["--out", run_dir])
-    again, _ = _settle(["--config", os.path.join(run_dir, "config.json"), "--eval-episodes", "16"])
+    settings, _ = settle(cli, "dcg", TINY + ["--out", run_dir])
+    again, _ = settle(cli, "dcg", ["--config", os.path.join(run_dir, "config.json"), "--eval-episodes", "16"])
     assert again == settings and again.collectors == 2
-    plain, _ = _settle(["--net", "vnn"])
+    plain, _ = settle(cli, "dcg", ["--net", "vnn"])
     assert plain.collectors == 1 and "collectors" not in dcg.run_metadata(plain, dcg.DCG(), [0])
 
 
@@ -65,7 +61,7 @@ def test_a_team_size_outside_1_to_4_is_refused(value, capsys, tmp_path):
 def test_a_team_started_from_a_one_collector_network_plays_exactly_its_copies():
     """The widened network ignores the teammates plane (zero weights): the same games, the same team rewards."""
     source = learned_lib.shipped("omn_conn_strong")
-    settings, _ = _settle(["--net", "omn_conn", "--collectors", "2", "--init-from", "omn_conn_strong"])
+    settings, _ = settle(cli, "dcg", ["--net", "omn_conn", "--collectors", "2", "--init-from", "omn_conn_strong"])
     env, env_params = dcg.make_env(settings)
     net = learned_lib.make_network("omn_conn", 10, env.state_channels)
     params, sha = dcg.start_params(settings, env, env_params, net)
@@ -86,7 +82,7 @@ def test_a_warm_start_is_recorded_and_a_team_run_restarts_from_itself(run_dir, t
         meta = json.load(f)
     source = learned_lib.load(run_dir)
     assert meta["init_from"] == run_dir and meta["init_sha256"] == digest(source.params)
-    again, _ = _settle(["--config", out])
+    again, _ = settle(cli, "dcg", ["--config", out])
     assert again.init_from == run_dir and again.collectors == 2
     # a resume (its checkpoints/ folder exists) with the same warm start is the same run: nothing left to train
     assert cli.main(TINY + ["--init-from", run_dir, "--out", out, "--resume"]) == 0

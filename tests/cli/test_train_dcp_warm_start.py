@@ -11,11 +11,10 @@ import numpy as np
 import pytest
 
 from jaxdc.cli import train_dcp as cli
-from jaxdc.cli.train_common import parse_with_config
 from jaxdc.core.tree_check import digest
 from jaxdc.dcp import learned
 from jaxdc.training import dcp
-from tests.support.cli_checks import refused, tiny_run
+from tests.support.cli_checks import refused, settle, tiny_run
 
 # 32 updates of 4 envs x 8 steps on a 4x4 grid, one evaluation at the end.
 TINY = ["--net", "linear", "--grid-size", "4", "--total-reward", "6", "--energy", "4", "8", "--risk", "low",
@@ -27,9 +26,6 @@ TINY = ["--net", "linear", "--grid-size", "4", "--total-reward", "6", "--energy"
 def source(tmp_path_factory):
     return tiny_run(cli.main, TINY, tmp_path_factory)
 
-
-def _settle(argv):
-    return cli.settle(parse_with_config(cli.build_parser(), argv, "dcp", dcp.settings_from_metadata))
 
 
 def test_a_warm_start_begins_at_the_source_and_config_reproduces_it(source, tmp_path):
@@ -45,7 +41,7 @@ def test_a_warm_start_begins_at_the_source_and_config_reproduces_it(source, tmp_
     with open(os.path.join(out, "config.json")) as f:
         meta = json.load(f)
     assert meta["init_from"] == source and meta["init_sha256"] == digest(trained)
-    again, _ = _settle(["--config", os.path.join(out, "config.json"), "--eval-episodes", "10"])
+    again, _ = settle(cli, "dcp", ["--config", os.path.join(out, "config.json"), "--eval-episodes", "10"])
     assert again.init_from == source and again.risk == "high"
     # a resume with the same warm start is the same run: nothing left to train
     assert cli.main(argv + ["--resume"]) == 0

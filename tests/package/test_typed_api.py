@@ -14,7 +14,8 @@ ROOT = Path(__file__).resolve().parents[2] / "jaxdc"
 TYPED = sorted(
     [p for p in (ROOT / "core").glob("*.py") if p.stem not in ("stats", "sampling", "validate", "claims")]
     + list((ROOT / "agents").glob("*.py")) + list((ROOT / "wrappers").glob("*.py"))
-    + [ROOT / "dcp" / "env.py", ROOT / "dcg" / "env.py", ROOT / "dcg" / "picture.py", ROOT / "viewer" / "frame.py"]
+    + [ROOT / "dcp" / "env.py", ROOT / "dcp" / "types.py", ROOT / "dcg" / "env.py", ROOT / "dcg" / "types.py",
+       ROOT / "dcg" / "picture.py", ROOT / "viewer" / "frame.py"]
     + list((ROOT / "training").glob("*.py")) + list((ROOT / "dcg" / "team").glob("*.py"))
     + [ROOT / "pretrained.py", ROOT / "checkpoint.py", ROOT / "metadata.py", ROOT / "nets" / "registry.py",
        ROOT / "dcp" / "instances.py"]

@@ -1,5 +1,6 @@
-"""Checks shared by the command-line tests: a refused command line, a tiny finished training run, the checkout's
-subprocesses (``python -m train.*`` from the repository root)."""
+"""Checks shared by the command-line tests: a refused command line, a tiny finished training run and its restored
+state, the settings a training command line settles on, the checkout's subprocesses (``python -m train.*`` from the
+repository root)."""
 
 import contextlib
 import json
@@ -102,3 +103,24 @@ def resumes_exactly(main, argv, finished: str, tmp_path, last_step: int, restore
     for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
     return out
+
+
+def settle(cli, problem: str, argv: list):
+    """The settings that ``cli`` (:mod:`jaxdc.cli.train_dcp` or :mod:`jaxdc.cli.train_dcg`) settles on for
+    ``argv``, a ``--config`` read as the command reads it."""
+    from jaxdc.cli.train_common import parse_with_config
+    from jaxdc.training import dcg, dcp
+
+    from_metadata = {"dcg": dcg, "dcp": dcp}[problem].settings_from_metadata
+    return cli.settle(parse_with_config(cli.build_parser(), argv, problem, from_metadata))
+
+
+def restore_run(cli, argv: list, out: str):
+    """The training state stored in the run folder ``out`` of the command line ``argv``, as ``cli`` restores it."""
+    import jax
+
+    from jaxdc import checkpoint
+
+    run = cli.Run(cli.build_parser().parse_args(argv + ["--out", out]))
+    state, _ = checkpoint.restore(run.ckpt_dir, run.trainer.init(jax.random.PRNGKey(0)), run.metadata)
+    return state

@@ -25,11 +25,11 @@ import numpy as np
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.validate import check_int, check_positive_int
 from jaxdc.dcg import learned as learned_lib
-from jaxdc.dcg.env import CAUGHT, CLEARED
 from jaxdc.dcg.team import DCGTeam
 from jaxdc.dcg.team.env import DCG_SETTINGS
 from jaxdc.dcg.team.policies import copies, greedy_split
 from jaxdc.dcg.team.state import MAX_COLLECTORS
+from jaxdc.dcg.types import CAUGHT, CLEARED
 
 #: The yardstick teams :func:`team_table` plays.
 TEAMS = ("copies", "greedy_split")

@@ -44,11 +44,12 @@ from jaxdc.core.energy import energy_used, step_energy
 from jaxdc.core.env import Environment, Transition
 from jaxdc.core.scene import Scene
 from jaxdc.core.validate import check_bool, check_choice, check_int
-from jaxdc.dcg.env import CAUGHT, CLEARED, DCG, ENERGY, OUTCOMES, RUNNING, TRUNCATED, EnvParams
+from jaxdc.dcg.env import DCG, end_of_step
 from jaxdc.dcg.team import picture
 from jaxdc.dcg.team.observation import TeamObservation
 from jaxdc.dcg.team.state import FOG_TARGETS, MAX_COLLECTORS, MAX_OPPONENTS, TARGET_TIES, TeamState, collector_view
 from jaxdc.dcg.team.targeting import opponents_move
+from jaxdc.dcg.types import CAUGHT, CLEARED, ENERGY, OUTCOMES, RUNNING, TRUNCATED, EnvParams
 
 #: The DCG's constructor options that are bools (checked here: a team refuses ``1`` for ``True``).
 BOOL_OPTIONS = ("obs_history", "items_on_base", "reward_when_caught", "safe_base", "opponent_enters_base")
@@ -213,20 +214,9 @@ class DCGTeam(TeamObservation, Environment[TeamState, EnvParams]):
         new_state = dataclasses.replace(state, pos=pos, energy=energy, collector_outcome=collector_outcome, items=items,
                                   opponent=opp, history=history, time=time, outcome=outcome, ep_reward=ep_reward,
                                   ep_energy=ep_energy)
-        terminated = (outcome != RUNNING) & (outcome != TRUNCATED)
-        truncated = outcome == TRUNCATED
-        info = {
-            "outcome": outcome,
-            "opponent_action": o_t,
-            "strategy": state.strategy,
-            "episode_reward": ep_reward,
-            "episode_energy": ep_energy,
-            "episode_steps": time,
-            "invalid_action": invalid,
-            "collector_rewards": rewards,
-            "collector_outcomes": collector_outcome,
-            "world_state": self.world_state(new_state, params),
-        }
+        terminated, truncated, info = end_of_step(new_state, o_t, invalid)
+        info.update(collector_rewards=rewards, collector_outcomes=collector_outcome,
+                    world_state=self.world_state(new_state, params))
         return self.observe(new_state, params), new_state, reward, terminated, truncated, info
 
     def view(self, state: TeamState, collector: int, opponent: int = 0) -> Any:

@@ -18,8 +18,8 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from jaxdc.dcg.env import RUNNING, EnvState
 from jaxdc.dcg.opponents import OpponentState
+from jaxdc.dcg.types import RUNNING, EnvState
 
 #: The largest team (the constructor refuses more; issue 29: 1-4 collectors).
 MAX_COLLECTORS = 4
