@@ -51,7 +51,7 @@ from jaxdc.core.sampling import (
     uniform_index,
 )
 from jaxdc.core.scene import Scene
-from jaxdc.core.validate import INT32_MAX, check_float, check_int, check_positive_int, is_int, value_text
+from jaxdc.core.validate import INT32_MAX, check_bool, check_float, check_int, check_positive_int, is_int, value_text
 from jaxdc.dcp.types import CLEARED, ENERGY, IDLE, OUTCOMES, RISK, RUNNING, TRUNCATED, EnvParams, EnvState
 
 #: Where the agent starts (an ambiguity of section 4.3: "the initial locations ... are random").
@@ -155,9 +155,9 @@ class DCP(Environment[EnvState, EnvParams]):
         self.observation = observation
         self.total_reward = int(total_reward)
         self.start = start
-        self.items_on_base = bool(items_on_base)
+        self.items_on_base = check_bool("items_on_base", items_on_base)
         self.energy_metric = energy_metric
-        self.idle_terminates = bool(idle_terminates)
+        self.idle_terminates = check_bool("idle_terminates", idle_terminates)
         self.item_order = item_order
         self.min_total_reward = None if min_total_reward is None else int(min_total_reward)
         self.item_tilt = item_tilt

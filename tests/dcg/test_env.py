@@ -354,6 +354,9 @@ def test_safe_base_and_opponent_out_of_base():
     (dict(capture="never"), "capture must be one of"),
     (dict(caught_energy="half"), "caught_energy must be one of"),
     (dict(safe_base=1), "safe_base must be a bool"),
+    (dict(obs_history="no"), "obs_history must be a bool .*got 'no'"),
+    (dict(items_on_base=1), "items_on_base must be a bool"),
+    (dict(reward_when_caught="yes"), "reward_when_caught must be a bool"),
     (dict(opponent_enters_base="no"), "opponent_enters_base must be a bool"),
     (dict(opponent_enters_base=False, opponent_start="any"), "needs opponent_start='not_base'"),
 ])

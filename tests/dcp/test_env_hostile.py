@@ -26,6 +26,8 @@ from jaxdc.dcp.env import DCP
         (dict(min_total_reward=1, item_tilt=9.0), ValueError, "item_tilt must be >= -8 and <= 8, got 9"),
         (dict(min_total_reward=1, item_tilt=float("nan")), ValueError, "item_tilt must be >= -8 and <= 8, got NaN"),
         (dict(min_total_reward=1, item_tilt="1"), TypeError, "item_tilt must be a number"),
+        (dict(items_on_base="no"), TypeError, "items_on_base must be a bool (True or False), got 'no'"),
+        (dict(idle_terminates=1), TypeError, "idle_terminates must be a bool"),
     ],
 )
 def test_bad_constructor_args(kwargs, exc, word):
