@@ -117,8 +117,7 @@ class DCPSettings:
         for k in learned.BODY_KEYS:  # the set ones as plain ints (a list or numpy ints read from a file)
             if getattr(self, k) is not None:
                 object.__setattr__(self, k, sized[k])
-        object.__setattr__(self, "heuristic_rows", navigators.check_rows(self.heuristic_rows,
-                                                                                  "heuristic_rows"))
+        object.__setattr__(self, "heuristic_rows", navigators.check_rows(self.heuristic_rows, "heuristic_rows"))
         if self.heuristic_rows != 10 and not DCP_NETS[self.net].uses_heuristics:
             raise ValueError(f"heuristic_rows={self.heuristic_rows}: network {self.net!r} reads no heuristics "
                              f"(ENN and EQN do)")

@@ -319,11 +319,3 @@ def test_safe_budget_ends_its_episodes_where_going_now_and_recharging_tie():
         final = evaluate_heuristic(env, params, "safe_budget", jax.random.PRNGKey(0), 256)
         assert not np.any(np.asarray(final.outcome) == OUTCOMES.index("truncated"))
         assert np.asarray(final.time).max() < 4 * 6 * 6
-
-
-def test_settings_name_heuristic_rows():
-    from jaxdc.agents.a2c import A2CConfig
-    from jaxdc.training.dcp import DCPSettings
-
-    with pytest.raises(ValueError, match=r"heuristic_rows \(the number of ENN heuristics\) must be one of"):
-        DCPSettings(net="enn", config=A2CConfig(), heuristic_rows=True)

@@ -78,3 +78,12 @@ def test_an_item_tilt_reaches_the_environment_and_the_metadata_only_when_set():
     assert meta["item_tilt"] == 0.5
     assert settings_from_metadata(meta, "config.json")[0] == tilted
     assert "item_tilt" not in run_metadata(DCPSettings(net="enn", config=A2CConfig(), min_total_reward=1), [0])
+
+
+def test_settings_refuse_bad_heuristic_rows_by_name():
+    from jaxdc.agents.a2c import A2CConfig
+    from jaxdc.training.dcp import DCPSettings
+
+    for bad in (True, 12, 10.0):
+        with pytest.raises(ValueError, match=r"heuristic_rows \(the number of ENN heuristics\) must be one of"):
+            DCPSettings(net="enn", config=A2CConfig(), heuristic_rows=bad)

@@ -51,8 +51,6 @@ from jaxdc.dcg.team.state import FOG_TARGETS, MAX_COLLECTORS, MAX_OPPONENTS, TAR
 from jaxdc.dcg.team.targeting import opponents_move
 from jaxdc.dcg.types import CAUGHT, CLEARED, ENERGY, OUTCOMES, RUNNING, TRUNCATED, EnvParams
 
-#: The DCG's constructor options that are bools (checked here: a team refuses ``1`` for ``True``).
-BOOL_OPTIONS = ("obs_history", "items_on_base", "reward_when_caught", "safe_base", "opponent_enters_base")
 #: The DCG's settings read through the team game (``env.strategies``, ``env.history``, ...).
 DCG_SETTINGS = ("total_reward", "strategies", "_strategies", "history", "obs_history", "history_fill",
                 "items_on_base", "opponent_start", "patrol_target", "reward_when_caught", "energy_metric",
@@ -90,10 +88,7 @@ class DCGTeam(TeamObservation, Environment[TeamState, EnvParams]):
         self.teammates = self.collectors > 1 if teammates is None else check_bool("teammates", teammates)
         self.fog_target = check_choice("fog_target", fog_target, FOG_TARGETS)
         self.target_tie = check_choice("target_tie", target_tie, TARGET_TIES)
-        for name in BOOL_OPTIONS:
-            if name in options:
-                check_bool(name, options[name])
-        #: The one-collector game whose rules, strategies and observation the team reuses.
+        #: The one-collector game whose rules, strategies and observation the team reuses (it checks the options).
         self.single = DCG(**options)
         self.grid_size = self.single.grid_size
         self.action_shape = (self.collectors,)
