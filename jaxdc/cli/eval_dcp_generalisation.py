@@ -4,6 +4,7 @@ Examples::
 
     python -m eval.dcp generalisation --checkpoint enn_general
     python -m eval.dcp generalisation --checkpoint runs/gen --maps-per-source 4 --episodes 10000 --seed 5
+    python -m eval.dcp generalisation --checkpoint runs/pooled --grid-size 10 --no-thesis
 
 The grid (:mod:`jaxdc.dcp.analysis.generalisation`): maps of the network's
 training set, held-out generated maps (seeds no training run may use) and the
@@ -16,7 +17,9 @@ all on the same episode keys. Writes ``generalisation.json``, ``generalisation.m
 ``generalisation_ratio.png`` (network / best navigator, map x budget; budgets
 inside the training range are starred) and, with the optimum,
 ``generalisation_one_item.png`` into ``--out`` (default
-``results/dcp/generalisation``), all landing together.
+``results/dcp/generalisation``), all landing together. ``--grid-size`` plays the grid on another
+``N x N`` grid than the network's, for a network whose body pools over the cells (``train.dcp --body-pool
+mean_max``); the thesis tables stay on the network's own grid.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ import os
 import sys
 
 from jaxdc import pretrained
-from jaxdc.cli.args import positive_int, seed
+from jaxdc.cli.args import integer, positive_int, seed
 from jaxdc.cli.runner import command_line
 from jaxdc.core.generators import GENERATORS
 from jaxdc.core.validate import value_text
@@ -54,6 +57,9 @@ def add_parser(sub, prog: str) -> argparse.ArgumentParser:
                    help="pairs INIT MAX, e.g. 8 16 16 32 (default: 4/8 6/12 8/16 12/24 16/32 24/48 32/64)")
     p.add_argument("--generator", choices=tuple(GENERATORS), default=None,
                    help="the generator of the held-out maps (default: the network's own training generator)")
+    p.add_argument("--grid-size", type=integer("--grid-size", low=2), default=None, metavar="N",
+                   help="play the maps on N x N grids (default: the network's own grid size; another size needs a "
+                        "network that plays every grid size, train.dcp --body-pool mean_max)")
     p.add_argument("--total-reward", type=positive_int("--total-reward"), default=30)
     p.add_argument("--episodes", type=positive_int("--episodes"), default=2000)
     p.add_argument("--seed", type=seed("--seed"), default=5)
@@ -88,16 +94,31 @@ def budgets(values: list[float] | None) -> tuple[tuple[float, float], ...]:
 
 
 def specialist_finder(total_reward: int):
-    """``setting -> Learned | None``: the shipped ENN of a thesis map and budget, if one is shipped."""
+    """``setting -> Learned | None``: the shipped ENN of a thesis map and budget, if one is shipped (on the
+    setting's grid size)."""
     def find(setting: gen.Setting):
         if setting.source != "thesis" or total_reward != 30:
             return None
         name = learned_lib.shipped_name("enn", setting.map_name, setting.energy)
         try:
-            return learned_lib.load(pretrained.shipped("dcp", name), net="enn")
+            return learned_lib.load(pretrained.shipped("dcp", name), net="enn", grid_size=setting.risk.shape[0])
         except ValueError:
             return None
     return find
+
+
+def grid_size_of(learned: learned_lib.Learned, wanted: int | None) -> int:
+    """The grid size to play: ``wanted`` (``--grid-size``) or the network's own; another size than the network's
+    only for a network that plays every grid size (:func:`jaxdc.dcp.learned.plays_any_grid`), else a
+    ``ValueError`` naming ``--grid-size``."""
+    own = learned.setting()["grid_size"]
+    if wanted is None or wanted == own:
+        return own
+    if not learned_lib.plays_any_grid(learned.metadata):
+        raise ValueError(f"--grid-size {wanted}: {learned.source} was trained on a {own}x{own} grid and its body "
+                         f"flattens the grid, so it plays only that size (a network trained with --body-pool "
+                         f"mean_max plays every size)")
+    return wanted
 
 
 def main(args: argparse.Namespace, prog: str, argv=None) -> int:
@@ -109,8 +130,8 @@ def main(args: argparse.Namespace, prog: str, argv=None) -> int:
     out = check_output_folder(args.out, "--out", files=OUTPUT_FILES,
                               inputs={"--checkpoint": pretrained.read_paths(args.checkpoint, "dcp")})
     learned = learned_lib.load(args.checkpoint, net="enn")
-    grid = gen.settings(learned.metadata, args.maps_per_source, pairs, learned.metadata.get("grid_size", 8),
-                        args.generator)
+    grid_size = grid_size_of(learned, args.grid_size)
+    grid = gen.settings(learned.metadata, args.maps_per_source, pairs, grid_size, args.generator)
     enable_compilation_cache()
     command = command_line(prog, argv)
 
@@ -123,9 +144,9 @@ def main(args: argparse.Namespace, prog: str, argv=None) -> int:
                    None if args.no_specialist else specialist_finder(args.total_reward), args.greedy, progress,
                    args.bound)
     thesis = [] if args.no_thesis else gen.thesis_tables(learned, args.thesis_episodes, args.seed, args.greedy)
-    payload = {"network": learned.source, "command": command, "training_range": list(gen.training_range(
-        learned.metadata)), "rows": rows, "summary": gen.summarise(rows), "thesis_tables": thesis,
-        "provenance": provenance(argv)}
+    payload = {"network": learned.source, "command": command, "grid_size": grid_size,
+               "training_range": list(gen.training_range(learned.metadata)), "rows": rows,
+               "summary": gen.summarise(rows), "thesis_tables": thesis, "provenance": provenance(argv)}
     text = gen.markdown(rows, command, learned.source) + ("\n" + gen.thesis_markdown(thesis) if thesis else "")
     files = {os.path.join(out, "generalisation.json"): json_text(payload),
              os.path.join(out, "generalisation.md"): text}

@@ -55,7 +55,7 @@ from jaxdc.core.energy import MAX_ENERGY_TILT
 from jaxdc.core.sampling import MAX_TILT
 from jaxdc.dcp.navigators import HEURISTIC_ROWS
 from jaxdc.io import check_not_input
-from jaxdc.nets.body import MAX_CONV_LAYERS, MAX_WIDTH
+from jaxdc.nets.body import MAX_CONV_LAYERS, MAX_WIDTH, POOLS
 from jaxdc.training.dcp import NETS, DCPRun, DCPSettings, settings_from_metadata
 
 #: EQN's default environment steps between target-network copies (``QConfig.target_every``).
@@ -100,6 +100,9 @@ def build_parser() -> argparse.ArgumentParser:
                                      f"{MAX_CONV_LAYERS} of them (default: the thesis' 32 16)")
     b.add_argument("--body-hidden", type=positive_int("--body-hidden", MAX_WIDTH), default=None, metavar="H",
                    help="enn, eqn, cnn: the units of the hidden dense layer (default: the thesis' 256)")
+    b.add_argument("--body-pool", choices=POOLS, default=None,
+                   help="enn, eqn, cnn: how the body reduces the grid: flatten (the thesis' default) or mean_max "
+                        "(each filter's mean and maximum over the cells: the network plays every grid size)")
     b.add_argument("--heuristic-rows", type=int, choices=HEURISTIC_ROWS, default=10,
                    help="enn, eqn: the heuristic rows the network weighs: 10, the thesis' (section 4.4.3), or 11, "
                         "which adds Safe-Budget, the route to LPG's item that fits the energy")
@@ -149,7 +152,8 @@ def settle(args):
                            init_fraction=args.init_fraction, init_from=args.init_from,
                            energy_tilt=args.energy_tilt, item_tilt=args.item_tilt,
                            body_features=None if args.body_features is None else tuple(args.body_features),
-                           body_hidden=args.body_hidden, heuristic_rows=args.heuristic_rows)
+                           body_hidden=args.body_hidden, body_pool=args.body_pool,
+                           heuristic_rows=args.heuristic_rows)
     out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{seed_tag(args)}")
     return settings, run_control(args, out)
 

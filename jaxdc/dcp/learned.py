@@ -51,7 +51,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
     from jaxdc.core.validate import SEED_MAX
     from jaxdc.dcp import env as dcp_env
     from jaxdc.dcp.navigators import HEURISTIC_ROWS
-    from jaxdc.nets.body import MAX_WIDTH
+    from jaxdc.nets.body import MAX_WIDTH, POOLS
     from jaxdc.pretrained import (
         json_bool,
         json_choice,
@@ -76,6 +76,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "init_fraction": optional(json_number(0.0, 1.0)),
         "init_from": optional(json_string), "init_sha256": optional(json_string),
         "body_features": json_list(json_int(1, MAX_WIDTH)), "body_hidden": json_int(1, MAX_WIDTH),
+        "body_pool": json_choice(POOLS),
         "heuristic_rows": json_int(min(HEURISTIC_ROWS), max(HEURISTIC_ROWS)),  # the row counts are consecutive
         "env": json_object({"start": json_choice(dcp_env.STARTS), "items_on_base": json_bool,
                             "idle_terminates": json_bool, "item_order": json_choice(dcp_env.ITEM_ORDERS),
@@ -156,8 +157,8 @@ class Learned(pretrained.Learned):
                 f"{_trained_for(self.metadata)}, seed {self.metadata.get('seed', '?')} ({self.source})")
 
 
-#: The metadata keys that size a network's convolutional body (beyond the thesis; absent: the thesis' body).
-BODY_KEYS = ("body_features", "body_hidden")
+#: The metadata keys that shape a network's convolutional body (beyond the thesis; absent: the thesis' body).
+BODY_KEYS = ("body_features", "body_hidden", "body_pool")
 
 
 def make_network(net_name: str, meta: dict | None = None) -> Any:
@@ -196,10 +197,18 @@ def check_params(net_name: str, net: Any, params: Any, grid_size: int, source: s
     return params
 
 
+def plays_any_grid(meta: dict) -> bool:
+    """Whether the network of metadata ``meta`` plays every grid size: its body pools over the cells
+    (``body_pool`` in :data:`jaxdc.nets.body.GRID_FREE_POOLS`), so its parameters do not depend on the grid."""
+    from jaxdc.nets.body import GRID_FREE_POOLS
+
+    return meta.get("body_pool") in GRID_FREE_POOLS
+
+
 def _grid_checker(grid_size: int | None) -> Callable[[dict, str], None]:
     def check(meta: dict, source: str) -> None:
         have = meta.get("grid_size", DEFAULT_SETTING["grid_size"])
-        if grid_size is not None and have != grid_size:
+        if grid_size is not None and have != grid_size and not plays_any_grid(meta):
             raise ValueError(f"{source} was trained on a {have}x{have} grid; it cannot play a "
                              f"{grid_size}x{grid_size} grid (grid_size={grid_size})")
     return check

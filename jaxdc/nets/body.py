@@ -4,6 +4,10 @@
 and strides of size 1 with same paddings. The filter counts are 32 and 16 in
 that order. The fully connected layer has 256 hidden units. All the hidden
 layers are followed by rectifier nonlinearity."
+
+Beyond the thesis, the body may pool its last convolutional layer over the cells instead of flattening it
+(``pool="mean_max"``: the mean and the maximum of each filter over the grid). Its parameters then do not depend on
+the grid size, so one network plays every ``N x N`` grid (issue 28's stretch goal; docs/generalisation.md).
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ from typing import Any, Sequence
 import flax.linen as nn
 import jax.numpy as jnp
 
-from jaxdc.core.validate import check_int
+from jaxdc.core.validate import check_choice, check_int
 
 #: The thesis' body (section 4.5): the filter counts of the two convolutional layers and the hidden units.
 THESIS_FEATURES: tuple[int, ...] = (32, 16)
@@ -21,6 +25,18 @@ THESIS_HIDDEN = 256
 #: The bounds of an optional body (beyond the thesis): up to this many convolutional layers, each and the hidden
 #: layer at most :data:`MAX_WIDTH` units wide (a guard against a typo that would not fit in memory).
 MAX_CONV_LAYERS, MAX_WIDTH = 6, 4096
+#: How the body turns the last convolutional layer into one vector: ``"flatten"`` (the thesis: every cell's
+#: filters, so the dense layer's shape depends on the grid size) or ``"mean_max"`` (beyond the thesis: each
+#: filter's mean and maximum over the cells, so the parameters fit every grid size).
+POOLS = ("flatten", "mean_max")
+THESIS_POOL = "flatten"
+#: The pools whose parameters do not depend on the grid size.
+GRID_FREE_POOLS = frozenset({"mean_max"})
+
+
+def check_pool(body_pool: Any) -> str:
+    """``body_pool`` if it is one of :data:`POOLS`, else a ``ValueError`` naming it and the choices."""
+    return check_choice("body_pool", body_pool, POOLS)
 
 
 def check_body(body_features: Any, body_hidden: Any) -> tuple[tuple[int, ...], int]:
@@ -38,15 +54,20 @@ def check_body(body_features: Any, body_hidden: Any) -> tuple[tuple[int, ...], i
 
 
 class ConvBody(nn.Module):
-    """``obs [B, N, N, C] -> features [B, hidden]``: conv 3x3 (same) x len(features), then dense, all ReLU."""
+    """``obs [B, N, N, C] -> features [B, hidden]``: conv 3x3 (same) x len(features), then ``pool`` (one of
+    :data:`POOLS`), then dense, all ReLU."""
 
     features: Sequence[int] = THESIS_FEATURES
     hidden: int = THESIS_HIDDEN
+    pool: str = THESIS_POOL
 
     @nn.compact
     def __call__(self, obs):
         x = jnp.asarray(obs, jnp.float32)
         for f in self.features:
             x = nn.relu(nn.Conv(f, (3, 3), strides=1, padding="SAME")(x))
-        x = x.reshape(x.shape[0], -1)
+        if self.pool == "mean_max":
+            x = jnp.concatenate([jnp.mean(x, axis=(1, 2)), jnp.max(x, axis=(1, 2))], axis=-1)
+        else:
+            x = x.reshape(x.shape[0], -1)
         return nn.relu(nn.Dense(self.hidden)(x))

@@ -16,7 +16,7 @@ from __future__ import annotations
 import flax.linen as nn
 import jax.numpy as jnp
 
-from jaxdc.nets.body import THESIS_FEATURES, THESIS_HIDDEN, ConvBody
+from jaxdc.nets.body import THESIS_FEATURES, THESIS_HIDDEN, THESIS_POOL, ConvBody
 
 
 def ensemble(weights, bias, heuristics):
@@ -47,14 +47,16 @@ class EnsembleHead(nn.Module):
 class HeuristicNet(nn.Module):
     """The fields and the network contract of the networks that weigh the heuristic vectors (ENN, EQN).
 
-    ``body_features`` and ``body_hidden`` size the convolutional body (:class:`~jaxdc.nets.body.ConvBody`); the
-    defaults are the thesis' (section 4.5), a wider body is an option beyond it.
+    ``body_features`` and ``body_hidden`` size the convolutional body (:class:`~jaxdc.nets.body.ConvBody`) and
+    ``body_pool`` says how it reduces the grid; the defaults are the thesis' (section 4.5), a wider body or a
+    pooled one (which fits every grid size) is an option beyond it.
     """
 
     num_heuristics: int = 10
     num_actions: int = 9
     body_features: tuple[int, ...] = THESIS_FEATURES
     body_hidden: int = THESIS_HIDDEN
+    body_pool: str = THESIS_POOL
     uses_heuristics = True
     has_aux = False
     aux_params = ()
@@ -64,7 +66,7 @@ class ENN(HeuristicNet):
     """``(obs [B, N, N, 2], heuristics [B, n, A]) -> (logits [B, A], value [B])`` (Fig. 4.3)."""
 
     def setup(self):
-        self.body = ConvBody(self.body_features, self.body_hidden)
+        self.body = ConvBody(self.body_features, self.body_hidden, self.body_pool)
         self.head = EnsembleHead(self.num_heuristics, self.num_actions)
         self.value_out = nn.Dense(1)
 

@@ -23,6 +23,6 @@ class EQN(HeuristicNet):
 
     @nn.compact
     def __call__(self, obs, heuristics):
-        features = ConvBody(self.body_features, self.body_hidden, name="body")(obs)
+        features = ConvBody(self.body_features, self.body_hidden, self.body_pool, name="body")(obs)
         w, b = EnsembleHead(self.num_heuristics, self.num_actions, name="head")(features)
         return ensemble(w, b, heuristics)

@@ -22,7 +22,7 @@ from typing import Any, cast
 import flax.linen as nn
 
 from jaxdc.core.validate import check_choice, is_int
-from jaxdc.nets.body import THESIS_FEATURES, THESIS_HIDDEN, check_body
+from jaxdc.nets.body import THESIS_FEATURES, THESIS_HIDDEN, check_body, check_pool
 from jaxdc.nets.cnn import CNN
 from jaxdc.nets.critic import WorldCritic
 from jaxdc.nets.emnn import EMNN
@@ -89,38 +89,47 @@ def entry(problem: str, name: str) -> NetEntry:
     return nets[name]
 
 
-def body_options(problem: str, name: str, body_features: Any = None, body_hidden: Any = None) -> dict[str, Any]:
-    """The constructor options that size network ``name``'s convolutional body (section 4.5; beyond the thesis):
-    ``{}`` when both are ``None`` (the thesis' ``(32, 16)`` filters and 256 hidden units), else
-    ``{"body_features": tuple, "body_hidden": int}`` with the thesis' value for the one left ``None``. Only ENN,
-    EQN and the CNN have the body, and the sizes are bounded (:func:`jaxdc.nets.body.check_body`); else a
-    ``TypeError``/``ValueError`` naming the parameter."""
-    if body_features is None and body_hidden is None:
+def body_options(problem: str, name: str, body_features: Any = None, body_hidden: Any = None,
+                 body_pool: Any = None) -> dict[str, Any]:
+    """The constructor options that shape network ``name``'s convolutional body (section 4.5; beyond the thesis):
+    ``{}`` when all are ``None`` (the thesis' ``(32, 16)`` filters, 256 hidden units, the grid flattened), else
+    ``{"body_features": tuple, "body_hidden": int}`` with the thesis' value for the one left ``None``, and
+    ``"body_pool"`` when it is set (one of :data:`jaxdc.nets.body.POOLS`). Only ENN, EQN and the CNN have the body,
+    and the sizes are bounded (:func:`jaxdc.nets.body.check_body`); else a ``TypeError``/``ValueError`` naming the
+    parameter."""
+    given = {n: v for n, v in (("body_features", body_features), ("body_hidden", body_hidden),
+                               ("body_pool", body_pool)) if v is not None}
+    if not given:
         return {}
     if not entry(problem, name).takes_body:
-        given = ", ".join(f"{n}={v!r}" for n, v in (("body_features", body_features), ("body_hidden", body_hidden))
-                          if v is not None)
-        raise ValueError(f"{given}: network {name!r} has no convolutional body to size (ENN, EQN and the CNN "
+        shown = ", ".join(f"{n}={v!r}" for n, v in given.items())
+        raise ValueError(f"{shown}: network {name!r} has no convolutional body to size (ENN, EQN and the CNN "
                          f"have one)")
-    features, hidden = check_body(THESIS_FEATURES if body_features is None else body_features,
-                                  THESIS_HIDDEN if body_hidden is None else body_hidden)
-    return {"body_features": features, "body_hidden": hidden}
+    out: dict[str, Any] = {}
+    if body_features is not None or body_hidden is not None:
+        features, hidden = check_body(THESIS_FEATURES if body_features is None else body_features,
+                                      THESIS_HIDDEN if body_hidden is None else body_hidden)
+        out.update(body_features=features, body_hidden=hidden)
+    if body_pool is not None:
+        out["body_pool"] = check_pool(body_pool)
+    return out
 
 
 def build(problem: str, name: str, history: int = 10, num_heuristics: int = 10, num_actions: int = 9,
           state_channels: int = 2, body_features: Sequence[int] | None = None,
-          body_hidden: int | None = None) -> nn.Module:
+          body_hidden: int | None = None, body_pool: str | None = None) -> nn.Module:
     """The flax module of network ``name`` of ``problem``.
 
     A DCG network that reads history planes needs ``history >= 1`` (section 5.5.2: ``k = 10``); VNN and the DCP's
     networks ignore it. ENN and EQN combine ``num_heuristics`` heuristics (section 4.4.3). A DCG network reads
     ``state_channels`` state planes before the history (2; 3 for the ``"general"`` observation's budget plane).
     ``body_features`` (filter counts) and ``body_hidden`` (units) size the convolutional body of ENN, EQN and the CNN
-    (``None``: the thesis' ``(32, 16)`` and 256; beyond the thesis, :func:`body_options`); another network has no
-    such body and refuses them.
+    (``None``: the thesis' ``(32, 16)`` and 256; beyond the thesis, :func:`body_options`), and ``body_pool`` how it
+    reduces the grid (``None``: flattened, the thesis; ``"mean_max"``: pooled, for every grid size); another
+    network has no such body and refuses them.
     """
     e = entry(problem, name)
-    sized = body_options(problem, name, body_features, body_hidden)
+    sized = body_options(problem, name, body_features, body_hidden, body_pool)
     if problem == "dcg" and state_channels not in (2, 3):
         raise ValueError(f"state_channels must be 2 (thesis) or 3 (general observation), got {state_channels!r}")
     extra = {} if state_channels == 2 else {"state_channels": state_channels}

@@ -74,6 +74,9 @@ class DCPSettings:
       body_features, body_hidden: the filter counts of the convolutional layers and the hidden units of the body of
         ENN, EQN or the CNN (``None``: the thesis' ``(32, 16)`` and 256, section 4.5; beyond the thesis, a wider
         body for a network that plays many maps and budgets: :func:`jaxdc.nets.registry.body_options`).
+      body_pool: how the body reduces the grid: ``None`` (flattened, the thesis) or one of
+        :data:`jaxdc.nets.body.POOLS` (``"mean_max"``, beyond the thesis: pooled over the cells, so the network
+        plays every grid size).
     """
 
     net: str
@@ -96,6 +99,7 @@ class DCPSettings:
     energy_tilt: float = 0.0
     body_features: tuple[int, ...] | None = None
     body_hidden: int | None = None
+    body_pool: str | None = None
     item_tilt: float = 0.0
     heuristic_rows: int = 10
 
@@ -113,8 +117,8 @@ class DCPSettings:
         check_instance_settings(self)
         object.__setattr__(self, "item_tilt", check_tilt_has_range(self.item_tilt, self.min_total_reward,
                                                                    "item_tilt", "min_total_reward"))
-        sized = body_options("dcp", self.net, self.body_features, self.body_hidden)
-        for k in learned.BODY_KEYS:  # the set ones as plain ints (a list or numpy ints read from a file)
+        sized = body_options("dcp", self.net, self.body_features, self.body_hidden, self.body_pool)
+        for k in learned.BODY_KEYS:  # the set ones as checked (plain ints for a list or numpy ints from a file)
             if getattr(self, k) is not None:
                 object.__setattr__(self, k, sized[k])
         object.__setattr__(self, "heuristic_rows", navigators.check_rows(self.heuristic_rows, "heuristic_rows"))
@@ -132,8 +136,8 @@ class DCPSettings:
         return DCP_NETS[self.net].algorithm == NSTEP_Q
 
     def body(self) -> dict[str, Any]:
-        """The body fields (``body_features``, ``body_hidden``) that are set: the metadata records them, and they
-        are keyword arguments of :func:`jaxdc.nets.registry.build`."""
+        """The body fields (``body_features``, ``body_hidden``, ``body_pool``) that are set: the metadata records
+        them, and they are keyword arguments of :func:`jaxdc.nets.registry.build`."""
         return {k: getattr(self, k) for k in learned.BODY_KEYS if getattr(self, k) is not None}
 
     def network_options(self) -> dict[str, Any]:

@@ -44,6 +44,7 @@ class Preset:
     item_tilt: float | None = None
     body_features: tuple[int, ...] | None = None
     body_hidden: int | None = None
+    body_pool: str | None = None
     heuristic_rows: int | None = None
     total_steps: int | None = None
     num_envs: int | None = None

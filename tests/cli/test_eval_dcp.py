@@ -84,6 +84,7 @@ class _FakeLearned:
 
     net_name = "enn"
     source = "fake.msgpack"
+    observation = "thesis"
     metadata = {"steps": 5, "seed": 2, "command": "python -m train.dcp"}
 
     def __init__(self, **setting):

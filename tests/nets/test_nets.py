@@ -143,3 +143,27 @@ def test_a_bad_body_is_refused_by_name(name, features, hidden, error, match):
     problem = "dcg" if name == "vnn" else "dcp"
     with pytest.raises(error, match=match):
         build(problem, name, body_features=features, body_hidden=hidden)
+
+
+def test_a_pooled_body_fits_every_grid_size_and_a_bad_pool_is_refused():
+    """``body_pool="mean_max"`` (beyond the thesis) pools the last convolutional layer over the cells: the
+    parameters have the same shapes on every grid size and play each; the thesis' flattened body's do not."""
+    from jaxdc.nets import build
+
+    net = build("dcp", "enn", body_pool="mean_max")
+    heur = jnp.zeros((2, 10, 9))
+    shapes = {n: jax.tree_util.tree_map(jnp.shape, net.init(jax.random.PRNGKey(0), jnp.zeros((2, n, n, 2)), heur))
+              for n in (4, 9)}
+    assert shapes[4] == shapes[9]
+    params = net.init(jax.random.PRNGKey(0), jnp.zeros((2, 4, 4, 2)), heur)
+    obs = jax.random.uniform(jax.random.PRNGKey(1), (2, 9, 9, 2))
+    logits, value = net.apply(params, obs, heur)
+    assert logits.shape == (2, 9) and value.shape == (2,) and bool(jnp.all(jnp.isfinite(logits)))
+    flat = build("dcp", "enn")
+    assert (jax.tree_util.tree_map(jnp.shape, flat.init(jax.random.PRNGKey(0), jnp.zeros((2, 4, 4, 2)), heur))
+            != jax.tree_util.tree_map(jnp.shape, flat.init(jax.random.PRNGKey(0), jnp.zeros((2, 9, 9, 2)), heur)))
+    for bad in ("avg", "", "MEAN_MAX"):
+        with pytest.raises(ValueError, match=r"body_pool must be one of \('flatten', 'mean_max'\)"):
+            build("dcp", "cnn", body_pool=bad)
+    with pytest.raises(ValueError, match="body_pool='mean_max': network 'linear' has no convolutional body"):
+        build("dcp", "linear", body_pool="mean_max")

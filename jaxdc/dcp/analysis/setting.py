@@ -14,6 +14,8 @@ import dataclasses
 import numpy as np
 
 from jaxdc.dcp.env import DCP, EnvParams
+from jaxdc.dcp.instances import fixed_instance
+from jaxdc.dcp.learned import plays_any_grid
 
 #: Setting of a heuristic evaluation when not given (Table 4.3: high risk, total reward 30, energy 8/16).
 DEFAULT_SETTING = {"risk": "high", "total_reward": 30, "energy": (8.0, 16.0), "max_steps": 1000}
@@ -45,7 +47,7 @@ class EnvOptions:
         options = dict(start=self.start, items_on_base=self.items_on_base, energy_metric=self.energy_metric,
                        idle_terminates=self.idle_terminates, item_order=self.item_order)
         if learned is not None:
-            options.update(idle_terminates=False)
+            options.update(idle_terminates=False, observation=learned.observation)
             options.update(learned.env_options())
         return options
 
@@ -57,7 +59,8 @@ def evaluation_setting(spec=None, learned=None, *, risk=None, total_reward=None,
     ``risk``, ``total_reward`` and ``energy`` count only without ``spec``;
     ``max_steps`` and ``grid_size`` always win; a ``risk_map`` replaces the
     risk and gives the grid size unless ``grid_size`` is given. Raises a
-    ``ValueError`` if ``learned`` was trained on another grid size.
+    ``ValueError`` if ``learned`` was trained on another grid size, unless its body pools over the cells
+    (:func:`jaxdc.dcp.learned.plays_any_grid`: it plays every grid size).
     """
     s = dict(DEFAULT_SETTING, grid_size=None)
     if learned is not None:
@@ -74,7 +77,8 @@ def evaluation_setting(spec=None, learned=None, *, risk=None, total_reward=None,
         s["grid_size"] = grid_size or risk_map.shape[0]
     else:
         s["grid_size"] = grid_size or s["grid_size"] or 8
-    if learned is not None and s["grid_size"] != learned.setting()["grid_size"]:
+    if (learned is not None and s["grid_size"] != learned.setting()["grid_size"]
+            and not plays_any_grid(learned.metadata)):
         g = learned.setting()["grid_size"]
         raise ValueError(f"{learned.source} was trained on a {g}x{g} grid; it cannot play a "
                          f"{s['grid_size']}x{s['grid_size']} grid")
@@ -83,6 +87,11 @@ def evaluation_setting(spec=None, learned=None, *, risk=None, total_reward=None,
 
 
 def make_env(setting: Setting, options: EnvOptions = EnvOptions(), learned=None) -> tuple[DCP, EnvParams]:
-    """The DCP of ``setting`` and its parameters; ``learned`` plays with the options it was trained with."""
+    """The DCP of ``setting`` and its parameters; ``learned`` plays with the options and the observation it was
+    trained with. A network that reads the instance (the ``"general"`` observation, beyond the thesis) plays the
+    setting's map and budget through the per-episode path (:func:`jaxdc.dcp.instances.fixed_instance`), as it
+    was trained."""
     env = DCP(grid_size=setting.grid_size, total_reward=setting.total_reward, **options.kwargs(learned))
+    if learned is not None and learned.observation != "thesis":
+        return env, fixed_instance(env, setting.risk, setting.energy, setting.max_steps)
     return env, env.make_params(setting.risk, setting.energy, max_steps=setting.max_steps)
