@@ -32,9 +32,11 @@ from jaxdc import pretrained
 from jaxdc.cli.args import integer, positive_int, seed
 from jaxdc.cli.runner import command_line
 from jaxdc.core.generators import GENERATORS
+from jaxdc.core.grid import check_grid_size
 from jaxdc.core.validate import value_text
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.analysis import generalisation as gen
+from jaxdc.dcp.env import MAX_RANGE
 from jaxdc.dcp.exact.unlimited import MAX_ITEM_CELLS
 from jaxdc.io import atomic_write_set, check_output_folder, enable_compilation_cache, json_text
 from jaxdc.provenance import provenance
@@ -114,6 +116,10 @@ def grid_size_of(learned: learned_lib.Learned, wanted: int | None) -> int:
     own = learned.setting()["grid_size"]
     if wanted is None or wanted == own:
         return own
+    try:
+        check_grid_size(wanted, max_cells=MAX_RANGE)  # the DCP's own bound, before any map is drawn
+    except ValueError as e:
+        raise ValueError(f"--grid-size: {e}") from None
     if not learned_lib.plays_any_grid(learned.metadata):
         raise ValueError(f"--grid-size {wanted}: {learned.source} was trained on a {own}x{own} grid and its body "
                          f"flattens the grid, so it plays only that size (a network trained with --body-pool "

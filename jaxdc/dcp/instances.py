@@ -102,8 +102,9 @@ def instance_params(env: DCP, maps: Any, energy_range: Any, init_fraction: float
     low, high = check_energy_range(energy_range)
     tilt = check_energy_tilt(energy_tilt)
     frac = check_float("init_fraction", init_fraction, 0.0, 1.0, low_open=True)
-    check_fits(table_bytes(arr.shape[0], env.grid_size), f"the safest-path tables of {arr.shape[0]} maps",
-               "the number of maps")
+    check_fits(table_bytes(arr.shape[0], env.grid_size),
+               f"the safest-path tables of {arr.shape[0]} maps of {env.grid_size}x{env.grid_size}",
+               "the number of maps or the grid size")
     base = env.make_params(arr[0], (max(1.0, round(frac * high)), high), max_steps)
     return dataclasses.replace(base, maps=jnp.asarray(arr), tables=compute_tables(arr),
                         energy_range=jnp.asarray([low, high], jnp.float32), init_fraction=jnp.float32(frac),

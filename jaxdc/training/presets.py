@@ -137,6 +137,12 @@ BEYOND["enn_general_budget"] = dataclasses.replace(
     BEYOND["enn_general_tilt"], heuristic_rows=11,
     description="every map and budget (beyond the thesis: enn_general_tilt's recipe with Safe-Budget's eleventh "
                 "heuristic row)")
+# The same recipe with a pooled body (docs/generalisation.md, "Other grid sizes"): each filter's mean and maximum
+# over the cells instead of the flattened grid, so one network plays every grid size; from scratch, seed 0.
+BEYOND["enn_general_pool"] = dataclasses.replace(
+    BEYOND["enn_general_budget"], body_pool="mean_max",
+    description="every map, budget and grid size (beyond the thesis: enn_general_budget's recipe with a body "
+                "pooled over the cells)")
 #: The strong DCG collectors (docs/dcg.md, "Strong collectors"; beyond the thesis): the PPO-style options at
 #: lr 1e-3, 3M steps (``NET_strong``) and the same recipe at the thesis' 1M steps (``NET_strong_1m``, Fig. 5.6).
 DCG_STRONG_RECIPE: dict[str, Any] = {**PPO, "lr": 1e-3, "eval_episodes": 2000}

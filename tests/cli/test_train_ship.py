@@ -1,5 +1,7 @@
 """train.ship: the commands that regenerate the shipped DCP networks."""
 
+import pytest
+
 from jaxdc.cli import train_ship
 from jaxdc.training import ship
 
@@ -128,3 +130,26 @@ def test_the_budget_row_network_records_its_recipe():
     assert shipped["heuristic_rows"] == 11 and shipped["seed"] == 0
     assert learned.load("enn_general_budget").heuristic_rows == 11
     assert "heuristic_rows" not in pretrained.read_metadata(pretrained.shipped("dcp", "enn_general_tilt"))
+
+
+def test_the_pooled_network_records_its_recipe_and_plays_other_grid_sizes():
+    """enn_general_pool: enn_general_budget's recipe with the body pooled over the cells; --config enn_general_pool
+    settles to it, the shipped file records the pool, and it loads for a 6x6 and a 10x10 grid (a flattened body
+    loads only for its own)."""
+    from jaxdc import pretrained
+    from jaxdc.cli import train_dcp
+    from jaxdc.cli.train_common import parse_with_config
+    from jaxdc.dcp import learned
+    from jaxdc.training import dcp
+
+    args = parse_with_config(train_dcp.build_parser(), ["--config", "enn_general_pool"], "dcp",
+                             dcp.settings_from_metadata)
+    settings, _ = train_dcp.settle(args)
+    assert settings.body_pool == "mean_max" and settings.heuristic_rows == 11 and settings.energy_tilt == 1.0
+    shipped = pretrained.read_metadata(pretrained.shipped("dcp", "enn_general_pool"))
+    assert shipped["body_pool"] == "mean_max" and shipped["grid_size"] == 8 and shipped["seed"] == 0
+    for size in (6, 10):
+        assert learned.load("enn_general_pool", grid_size=size).net.body_pool == "mean_max"
+    with pytest.raises(ValueError, match="trained on a 8x8 grid; it cannot play a 6x6 grid"):
+        learned.load("enn_general_budget", grid_size=6)
+    assert "body_pool" not in pretrained.read_metadata(pretrained.shipped("dcp", "enn_general_budget"))

@@ -85,3 +85,20 @@ def test_eval_dcp_plays_a_general_network_on_its_own_instance_path_at_any_grid_s
         final = evaluate_learned(env, instances.fixed_instance(env, "medium", (6.0, 12.0)), net,
                                  jax.random.PRNGKey(3), 24)
         assert got == pytest.approx(float(np.mean(np.asarray(final.ep_reward))), abs=1e-6), size
+
+
+def test_cli_refuses_a_grid_size_the_dcp_or_the_memory_cannot_hold(tmp_path, capsys, monkeypatch):
+    """``--grid-size`` past the DCP's own bound (255) is refused by name before any map is drawn, and one whose
+    safest-path tables do not fit names the grid size as what to lower; no output folder is left."""
+    from jaxdc.cli import eval_dcp
+
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(2**30))
+    for size, match in (("5000", "--grid-size: grid_size must be <= 255"),
+                        ("100", "the safest-path tables of 1 maps of 100x100 needs about")):
+        with pytest.raises(SystemExit) as e:
+            eval_dcp.main(["generalisation", "--checkpoint", "enn_general_pool", "--grid-size", size, "--no-thesis",
+                           "--out", str(tmp_path / size)])
+        err = capsys.readouterr().err
+        assert e.value.code == 2 and match in err, err
+        assert "the number of maps or the grid size" in err or size == "5000"
+        assert not os.path.exists(tmp_path / size)
