@@ -19,7 +19,8 @@ inside the training range are starred) and, with the optimum,
 ``generalisation_one_item.png`` into ``--out`` (default
 ``results/dcp/generalisation``), all landing together. ``--grid-size`` plays the grid on another
 ``N x N`` grid than the network's, for a network whose body pools over the cells (``train.dcp --body-pool
-mean_max``); the thesis tables stay on the network's own grid.
+mean_max``); the thesis tables are always played on the thesis' 8x8 grid, so a network that plays only another
+size needs ``--no-thesis`` (refused before any work otherwise).
 """
 
 from __future__ import annotations
@@ -137,6 +138,10 @@ def main(args: argparse.Namespace, prog: str, argv=None) -> int:
                               inputs={"--checkpoint": pretrained.read_paths(args.checkpoint, "dcp")})
     learned = learned_lib.load(args.checkpoint, net="enn")
     grid_size = grid_size_of(learned, args.grid_size)
+    own = learned.setting()["grid_size"]
+    if not args.no_thesis and own != gen.THESIS_GRID and not learned_lib.plays_any_grid(learned.metadata):
+        raise ValueError(f"--no-thesis is needed: the thesis tables are played on the thesis' {gen.THESIS_GRID}x"
+                         f"{gen.THESIS_GRID} grid, and {learned.source} plays only {own}x{own}")
     grid = gen.settings(learned.metadata, args.maps_per_source, pairs, grid_size, args.generator)
     enable_compilation_cache()
     command = command_line(prog, argv)

@@ -199,6 +199,10 @@ def heat_values(rows: list[dict], key: str = "ratio") -> tuple[list[list[float |
 THESIS_TABLES = ("4.3", "4.4", "4.5", "4.6", "4.7", "4.8")
 
 
+#: The grid size of the thesis' tables (Table 4.2: 8x8), on which :func:`thesis_tables` plays.
+THESIS_GRID = 8
+
+
 def thesis_tables(learned, episodes: int = 10_000, seed: int = 0, greedy: bool = False,
                   tables: tuple[str, ...] = THESIS_TABLES) -> list[dict]:
     """The network in the setting of each thesis table, against that table's ENN row (the thesis' per-table
@@ -209,7 +213,7 @@ def thesis_tables(learned, episodes: int = 10_000, seed: int = 0, greedy: bool =
     rows = []
     for name in tables:
         spec = TABLES[name]
-        env = DCP(total_reward=spec.total_reward, observation=learned.observation)
+        env = DCP(grid_size=THESIS_GRID, total_reward=spec.total_reward, observation=learned.observation)
         params = instances.fixed_instance(env, spec.risk, spec.energy)
         m, se = _mean_se(evaluate_learned(env, params, learned, jax.random.PRNGKey(seed), episodes, greedy))
         thesis = spec.rows["enn"][0]

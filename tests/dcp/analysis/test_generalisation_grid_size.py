@@ -102,3 +102,23 @@ def test_cli_refuses_a_grid_size_the_dcp_or_the_memory_cannot_hold(tmp_path, cap
         assert e.value.code == 2 and match in err, err
         assert "the number of maps or the grid size" in err or size == "5000"
         assert not os.path.exists(tmp_path / size)
+
+
+def test_cli_refuses_the_thesis_tables_for_a_network_of_another_grid_size_before_the_work(tmp_path, capsys):
+    """The thesis tables are played on the thesis' 8x8 grid: a flattened network of another size needs
+    ``--no-thesis``, refused by name before the grid is played (before, the grid ran and then failed on the
+    parameters' shapes); a pooled network plays them."""
+    from jaxdc.cli import eval_dcp, train_dcp
+
+    run = str(tmp_path / "flat5")
+    assert train_dcp.main(["--net", "enn", "--observation", "general", "--risk-maps", "bumps", "--map-seeds", "0",
+                           "8", "--grid-size", "5", "--energy-range", "8", "20", "--total-reward", "5", "--steps",
+                           "256", "--envs", "8", "--t-max", "8", "--eval-every", "256", "--eval-episodes", "8",
+                           "--out", run, "--no-progress"]) == 0
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as e:
+        eval_dcp.main(["generalisation", "--checkpoint", run, "--maps-per-source", "1", "--budgets", "6", "12",
+                       "--total-reward", "5", "--episodes", "8", "--out", str(tmp_path / "g")])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and "--no-thesis is needed" in err and "plays only 5x5" in err, err
+    assert not os.path.exists(tmp_path / "g")
