@@ -42,7 +42,7 @@ RUN_KEYS = {
     "dcp": ("format", "net", "problem", "grid_size", "total_reward", "risk", "energy", "max_steps",
             "min_total_reward", "seed", "seeds", "algorithm", "observation", "risk_maps", "map_seeds", "energy_range",
             "energy_tilt", "item_tilt", "init_fraction", "body_features", "body_hidden", "body_pool", "heuristic_rows",
-            "init_from",
+            "grid_sizes", "init_from",
             "init_sha256"),
     "dcg": ("format", "net", "problem", "grid_size", "total_reward", "strategies", "energy", "max_steps", "history",
             "alpha", "reward_area", "min_reward_area", "seed", "seeds", "algorithm", "observation", "energy_range",

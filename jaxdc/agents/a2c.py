@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from collections.abc import Sequence
 from typing import Any, Callable, NamedTuple
 
 import jax
@@ -75,12 +76,15 @@ from jaxdc.agents.common import (
     nstep_returns,
     team_size,
 )
+from jaxdc.agents.groups import EnvGroup, check_extra_envs
+from jaxdc.agents.losses import a2c_loss, aux_cross_entropy
 from jaxdc.core.env import Environment, step_batch
 from jaxdc.core.tree_check import check_like
 from jaxdc.core.validate import check_float, check_positive_int
 
-__all__ = ["A2CConfig", "Batch", "TrainState", "Trainer", "Transition", "a2c_loss", "aux_cross_entropy", "huber",
-           "lr_schedule", "make_optimizer", "make_policy", "make_train", "nstep_returns", "team_size"]
+__all__ = ["A2CConfig", "Batch", "EnvGroup", "TrainState", "Trainer", "Transition", "a2c_loss",
+           "aux_cross_entropy", "check_extra_envs", "huber", "lr_schedule", "make_optimizer", "make_policy",
+           "make_train", "nstep_returns", "team_size"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -156,8 +160,8 @@ class TrainState:
     params: Any
     opt_state: Any
     env_state: Any  # batched [num_envs] environment states
-    obs: jax.Array  # [num_envs, N, N, C]: C = 2 for the DCP, 2 + k for the DCG with its history planes;
-    # a team's [num_envs, agents, N, N, C]
+    obs: Any  # [num_envs, N, N, C]: C = 2 for the DCP, 2 + k for the DCG with its history planes;
+    # a team's [num_envs, agents, N, N, C]; with extra_envs a tuple, one array per environment (so env_state)
     key: jax.Array
     update: jax.Array  # int32, updates done so far
 
@@ -183,71 +187,6 @@ def make_optimizer(config: A2CConfig, aux_params: tuple[str, ...] | None = None)
     optional norm clipping, and with ``config.aux_lr`` a second Adam for the parameters under ``aux_params``
     (:func:`jaxdc.agents.common.make_optimizer_from`)."""
     return make_optimizer_from(config, config.steps_per_update, config.aux_lr, aux_params or ())
-
-
-def aux_cross_entropy(aux_logits: jax.Array, targets: jax.Array,
-                      weights: jax.Array | None = None) -> tuple[jax.Array, jax.Array]:
-    """Eq. 5.1: mean cross-entropy ``-log p(o_t)`` of the auxiliary head, and its accuracy (argmax = target);
-    with ``weights`` (teams: the active agents' steps) their weighted means.
-
-    Written out instead of ``optax.softmax_cross_entropy_with_integer_labels`` on purpose:
-    optax's ``logsumexp - logit`` gives the same mean here but gradients that differ in the
-    last bit, which would change every trained network; this ``log_softmax`` form keeps
-    training bit-identical to the runs that made the shipped networks.
-    """
-    logp = jax.nn.log_softmax(aux_logits)
-    logp_o = jnp.take_along_axis(logp, targets[:, None], axis=-1)[:, 0]
-    hit = jnp.argmax(aux_logits, axis=-1) == targets
-    if weights is None:
-        return -jnp.mean(logp_o), jnp.mean(hit)
-    total = jnp.maximum(jnp.sum(weights), 1.0)
-    return -jnp.sum(logp_o * weights) / total, jnp.sum(hit * weights) / total
-
-
-def a2c_loss(params: Any, apply_fn: Callable, obs: jax.Array, heuristics: jax.Array, actions: jax.Array,
-             returns: jax.Array, config: A2CConfig, aux_targets: jax.Array | None = None,
-             old_log_probs: jax.Array | None = None, advantages: jax.Array | None = None,
-             weights: jax.Array | None = None,
-             allowed: jax.Array | None = None) -> tuple[jax.Array, dict[str, jax.Array]]:
-    """Mean over the batch of ``-log pi(a|s) A + value_coef * Huber(R - V) - entropy_coef * H(pi)``.
-
-    ``A = R - V(s)`` is held constant (``stop_gradient``) in the policy term.
-    The thesis accumulates gradients over the batch (a sum); Adam is invariant
-    to that constant factor, so the mean is used. A network with an auxiliary
-    head (``apply`` returns a third output) adds ``aux_coef`` times
-    :func:`aux_cross_entropy` on ``aux_targets`` (section 5.4.4, Algorithm 12).
-
-    Options (not in the thesis): ``advantages`` replaces ``A`` (e.g. normalized
-    ones, computed before the update); with ``config.clip_eps`` the policy
-    term is PPO's ``-min(rho A, clip(rho, 1 - eps, 1 + eps) A)``,
-    ``rho = pi(a|s) / pi_old(a|s)`` from ``old_log_probs``. ``weights`` (teams: 1 for an active agent's step,
-    0 for a disabled one's) turn every mean into the weighted mean. ``allowed`` (bool ``[B, A]``, an action mask)
-    makes ``pi`` the masked policy the rollout sampled from (:func:`~jaxdc.agents.common.masked_logits`): its
-    log-probabilities and entropy are those over the allowed actions.
-    """
-    mean = jnp.mean if weights is None else (lambda x: jnp.sum(x * weights) / jnp.maximum(jnp.sum(weights), 1.0))
-    logits, values, *aux = apply_fn(params, obs, heuristics)
-    logp = jax.nn.log_softmax(masked_logits(logits, allowed))
-    logp_a = jnp.take_along_axis(logp, actions[:, None], axis=-1)[:, 0]
-    advantage = returns - values
-    adv = jax.lax.stop_gradient(advantage) if advantages is None else advantages
-    if config.clip_eps is None:
-        policy_loss = -mean(logp_a * adv)
-    else:
-        assert old_log_probs is not None, "clip_eps needs old_log_probs"
-        ratio = jnp.exp(logp_a - old_log_probs)
-        clipped = jnp.clip(ratio, 1.0 - config.clip_eps, 1.0 + config.clip_eps)
-        policy_loss = -mean(jnp.minimum(ratio * adv, clipped * adv))
-    value_loss = mean(huber(advantage))
-    entropy = -mean(jnp.sum(jnp.exp(logp) * logp, axis=-1))
-    loss = policy_loss + config.value_coef * value_loss - config.entropy_coef * entropy
-    metrics = {"policy_loss": policy_loss, "value_loss": value_loss, "entropy": entropy}
-    if aux:
-        assert aux_targets is not None, "a network with an auxiliary head needs aux_targets"
-        aux_loss, aux_accuracy = aux_cross_entropy(aux[0], aux_targets, weights)
-        loss = loss + config.aux_coef * aux_loss
-        metrics.update(aux_loss=aux_loss, aux_accuracy=aux_accuracy)
-    return loss, dict(metrics, loss=loss)
 
 
 # -- policies -----------------------------------------------------------------------------
@@ -276,7 +215,7 @@ def make_policy(net: Network, params: Any, heuristics: Callable | None = None, g
 # -- training -----------------------------------------------------------------------------
 def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Network, heuristics: Callable | None = None,
                aux_target: Callable | None = None, init_params: Any = None, critic: Any = None,
-               mask: Callable | None = None) -> Trainer:
+               mask: Callable | None = None, extra_envs: Sequence[EnvGroup] = ()) -> Trainer:
     """Build the A2C trainer of ``net`` on ``env`` with ``env_params`` (validated outside jit).
 
     ``heuristics`` (``env_states [B] -> [B, H, A]``) feeds a network that uses them (ENN).
@@ -301,6 +240,16 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
     ``mask`` (beyond the thesis; one agent only): ``state -> bool [A]`` for one environment state (e.g.
     :func:`jaxdc.core.masks.make_mask`): the rollout samples among the allowed actions, the batch keeps them, and
     the loss is that of the masked policy (:func:`a2c_loss`'s ``allowed``). ``None`` (default): every action.
+
+    ``extra_envs`` (beyond the thesis; one agent, no critic): more environments whose observations have other
+    shapes, e.g. the DCP on other grid sizes for a network whose body pools over the cells
+    (:class:`~jaxdc.agents.groups.EnvGroup` each). The ``num_envs`` environments are then split evenly over the
+    ``G = 1 + len(extra_envs)`` environments (``num_envs`` must be a multiple of ``G``, and ``num_envs * t_max``
+    of ``G * minibatches``); each update rolls every group out in turn (shapes are static, so one rollout per group),
+    and each Adam step's loss is the mean of the groups' losses (so of all rows: the groups are of one size) over
+    minibatches that take the same share of every group; ``reset_slots`` bounds each group's resets per step. The
+    training state's ``env_state`` and ``obs`` are then ``G``-tuples. Empty (default): the one environment, and
+    exactly the trainer without the option.
     """
     if not isinstance(config, A2CConfig):
         raise TypeError(f"config must be an A2CConfig, got {type(config).__name__}")
@@ -327,6 +276,14 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
         raise ValueError(f"aux_lr={config.aux_lr!r}: {type(net).__name__} has no separate auxiliary network "
                          "(aux_params); only OMN + CoNN has one")
     central = None if critic is None else CentralCritic.of(critic, env, env_params, agents)
+    groups = (EnvGroup(env, env_params, heuristics),
+              *check_extra_envs(extra_envs, config, config.minibatches, env, env_params, net, heuristics, agents,
+                                critic, mask))
+    g_count = len(groups)
+    group_envs = config.num_envs // g_count  # environments per group
+    # one group: the state holds its arrays as they are; several: a tuple of them, one per group
+    pack = (lambda xs: xs[0]) if g_count == 1 else tuple
+    unpack = (lambda x: (x,)) if g_count == 1 else (lambda x: x)
     tx = make_optimizer(config, net.aux_params)
     value_fn = functools.partial(net.apply, method="value")
 
@@ -340,21 +297,25 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
         init_params, "init_params", f"a {type(net).__name__} on this environment")
 
     def init(key) -> TrainState:
-        params, obs, env_state, k_train = first_batch(key, env, env_params, net, heuristics, config.num_envs,
-                                                      agents)
+        keys = [key] if g_count == 1 else list(jax.random.split(key, g_count))
+        params, obs0, state0, k_train = first_batch(keys[0], env, env_params, net, heuristics, group_envs, agents)
+        resets = [jax.vmap(grp.env.reset, in_axes=(0, None))(jax.random.split(k, group_envs), grp.env_params)
+                  for grp, k in zip(groups[1:], keys[1:])]
         params = params if start is None else start
-        params = params if central is None else central.init(key, env_state, params)
-        return TrainState(params, tx.init(params), env_state, obs, k_train, jnp.int32(0))
+        params = params if central is None else central.init(key, state0, params)
+        return TrainState(params, tx.init(params), pack([state0, *(e for _, e in resets)]),
+                          pack([obs0, *(o for o, _ in resets)]), k_train, jnp.int32(0))
 
-    def env_step(params, carry, _):
+    def env_step(group: EnvGroup, params, carry, _):
         env_state, obs, key = carry
         key, k_act, k_env = jax.random.split(key, 3)
-        h = heuristics(env_state)
+        assert group.heuristics is not None, "each group's heuristics are resolved by make_train"
+        h = group.heuristics(env_state)
         allowed = None if mask is None else jax.vmap(mask)(env_state)
         logits = masked_logits(net.apply(params, rows(obs), h)[0], allowed)
         action = jax.random.categorical(k_act, logits).astype(jnp.int32)
         obs2, env_state2, reward, term, trunc, info = step_batch(
-            env, k_env, env_state, by_env(action), env_params, config.reset_slots)
+            group.env, k_env, env_state, by_env(action), group.env_params, config.reset_slots)
         reward, term, trunc = per_agent(reward), per_agent(term), per_agent(trunc)
         final_value = jax.lax.cond(
             trunc.any(),
@@ -369,34 +330,56 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
                        None if central is None else central.world(env_state), allowed)
         return (env_state2, obs2, key), t
 
-    def adam_step(carry, batch: Batch):
-        params, opt_state = carry
-        adv = batch.advantages
-        if config.normalize_advantages:
-            assert adv is not None, "normalize_advantages needs the batch's advantages"
-            if batch.weight is None:
-                adv = (adv - jnp.mean(adv)) / (jnp.std(adv) + 1e-8)
-            else:  # the active agents' steps only
-                w = batch.weight / jnp.maximum(jnp.sum(batch.weight), 1.0)
-                centred = adv - jnp.sum(w * adv)
-                adv = centred / (jnp.sqrt(jnp.sum(w * centred ** 2)) + 1e-8)
+    def normalized(batches: tuple[Batch, ...]) -> tuple[jax.Array | None, ...]:
+        """The batches' advantages, standardized together when ``normalize_advantages`` (the active agents'
+        steps only, for a team)."""
+        if not config.normalize_advantages:
+            return tuple(b.advantages for b in batches)
+        advs = [b.advantages for b in batches if b.advantages is not None]
+        assert len(advs) == len(batches), "normalize_advantages needs the batch's advantages"
+        weight = batches[0].weight
+        if weight is None:
+            every = jnp.concatenate(advs)
+            mean, sd = jnp.mean(every), jnp.std(every)
+            return tuple((a - mean) / (sd + 1e-8) for a in advs)
+        adv = advs[0]  # a team: one group
+        w = weight / jnp.maximum(jnp.sum(weight), 1.0)
+        centred = adv - jnp.sum(w * adv)
+        return (centred / (jnp.sqrt(jnp.sum(w * centred ** 2)) + 1e-8),)
+
+    def batch_loss(params, batch: Batch, adv):
         apply_fn = net.apply if central is None or batch.world is None else central.apply_with(net.apply, batch.world)
-        grads, metrics = jax.grad(a2c_loss, has_aux=True)(
-            params, apply_fn, batch.obs, batch.heuristics, batch.action, batch.returns, config,
-            batch.aux_target, batch.old_log_prob, adv, batch.weight, batch.allowed)
+        return a2c_loss(params, apply_fn, batch.obs, batch.heuristics, batch.action, batch.returns, config,
+                        batch.aux_target, batch.old_log_prob, adv, batch.weight, batch.allowed)
+
+    def loss(params, batches: tuple[Batch, ...], advs: tuple[jax.Array | None, ...]):
+        """The mean of the groups' losses (one group: its loss)."""
+        if g_count == 1:
+            return batch_loss(params, batches[0], advs[0])
+        parts = [batch_loss(params, b, a) for b, a in zip(batches, advs)]
+        return (sum(p[0] for p in parts) / g_count,
+                jax.tree_util.tree_map(lambda *m: sum(m) / g_count, *(p[1] for p in parts)))
+
+    def adam_step(carry, batches: tuple[Batch, ...]):
+        params, opt_state = carry
+        grads, metrics = jax.grad(loss, has_aux=True)(params, batches, normalized(batches))
         updates, opt_state = tx.update(grads, opt_state, params)
         return (optax.apply_updates(params, updates), opt_state), metrics
 
-    def learn(params, opt_state, key, batch: Batch):
+    def learn(params, opt_state, key, batches: tuple[Batch, ...]):
         """Algorithm 10's one Adam step on the batch, or ``epochs`` passes over ``minibatches`` shuffled parts."""
         if config.steps_per_update == 1:
-            (params, opt_state), metrics = adam_step((params, opt_state), batch)
+            (params, opt_state), metrics = adam_step((params, opt_state), batches)
             return params, opt_state, key, metrics
 
         def epoch(carry, k_epoch):
-            perm = jax.random.permutation(k_epoch, config.batch_size * k)
-            parts = jax.tree_util.tree_map(lambda x: x[perm].reshape((config.minibatches, -1) + x.shape[1:]), batch)
-            return jax.lax.scan(adam_step, carry, parts, unroll=True)
+            keys = [k_epoch] if g_count == 1 else list(jax.random.split(k_epoch, g_count))
+            parts = []
+            for batch, k_group in zip(batches, keys):
+                perm = jax.random.permutation(k_group, config.batch_size // g_count * k)
+                parts.append(jax.tree_util.tree_map(
+                    lambda x, perm=perm: x[perm].reshape((config.minibatches, -1) + x.shape[1:]), batch))
+            return jax.lax.scan(adam_step, carry, tuple(parts), unroll=True)
 
         # unrolled: on XLA's CPU backend a convolution inside a scan's loop body runs many times slower
         key, k_perm = jax.random.split(key)
@@ -404,20 +387,21 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
                                                     jax.random.split(k_perm, config.epochs), unroll=True)
         return params, opt_state, key, jax.tree_util.tree_map(jnp.mean, metrics)
 
-    def update(ts: TrainState):
+    def collect(group: EnvGroup, params, env_state, obs, key):
+        """One group's rollout of ``t_max`` steps and its flattened :class:`Batch`."""
         (env_state, obs, key), traj = jax.lax.scan(
-            functools.partial(env_step, ts.params), (ts.env_state, ts.obs, ts.key), None,
+            functools.partial(env_step, group, params), (env_state, obs, key), None,
             config.t_max, unroll=config.unroll)
         flat = lambda x: x.reshape((-1,) + x.shape[2:])  # noqa: E731  [T, B, ...] -> [T*B, ...]
         old_log_prob = advantages = values = None
         if needs_old_policy:  # options: pi_old and V(s_t) of the rollout, before this update
-            logits, values = net.apply(ts.params, flat(traj.obs), flat(traj.heuristics))[:2]
-            values = values if central is None else central.row_values(ts.params, flat(traj.world))
+            logits, values = net.apply(params, flat(traj.obs), flat(traj.heuristics))[:2]
+            values = values if central is None else central.row_values(params, flat(traj.world))
             old_logp = jax.nn.log_softmax(masked_logits(logits, None if traj.allowed is None else flat(traj.allowed)))
             old_log_prob = jnp.take_along_axis(old_logp, flat(traj.action)[:, None], -1)[:, 0]
             values = values.reshape(traj.reward.shape)
         returns = nstep_returns(traj.reward, traj.terminated, traj.truncated, traj.final_value,
-                                values_of(ts.params, obs, None if central is None else central.world(env_state)),
+                                values_of(params, obs, None if central is None else central.world(env_state)),
                                 config.gamma, values, config.gae_lambda)
         if needs_old_policy:
             assert values is not None
@@ -427,13 +411,28 @@ def make_train(config: A2CConfig, env: Environment, env_params: Any, net: Networ
                       None if traj.weight is None else flat(traj.weight),
                       None if central is None else jnp.repeat(flat(traj.world), k, axis=0),
                       None if traj.allowed is None else flat(traj.allowed))
-        params, opt_state, key, metrics = learn(ts.params, ts.opt_state, key, batch)
-        done = traj.terminated | traj.truncated
+        return env_state, obs, key, traj, batch
+
+    def update(ts: TrainState):
+        key, states, observations, trajs, batches = ts.key, [], [], [], []
+        for group, env_state, obs in zip(groups, unpack(ts.env_state), unpack(ts.obs)):  # the key runs through
+            env_state, obs, key, traj, batch = collect(group, ts.params, env_state, obs, key)
+            states.append(env_state)
+            observations.append(obs)
+            trajs.append(traj)
+            batches.append(batch)
+        params, opt_state, key, metrics = learn(ts.params, ts.opt_state, key, tuple(batches))
+
+        def total(f: Callable[[Transition], jax.Array]) -> jax.Array:  # over the groups
+            return functools.reduce(jnp.add, [f(t) for t in trajs])
         # a team's episode is on each of its k rows: counted once
-        episodes = jnp.sum(done) if agents is None else jnp.sum(done) // k
-        episode_reward_sum = jnp.sum(traj.episode_reward) if agents is None else jnp.sum(traj.episode_reward) / k
+        episodes = total(lambda t: jnp.sum(t.terminated | t.truncated))
+        episode_reward_sum = total(lambda t: jnp.sum(t.episode_reward))
+        if agents is not None:
+            episodes, episode_reward_sum = episodes // k, episode_reward_sum / k
+        reward_per_step = total(lambda t: jnp.mean(t.reward)) / g_count
         metrics = dict(metrics, episodes=episodes, episode_reward_sum=episode_reward_sum,
-                       reward_per_step=jnp.mean(traj.reward))
-        return TrainState(params, opt_state, env_state, obs, key, ts.update + 1), metrics
+                       reward_per_step=reward_per_step)
+        return TrainState(params, opt_state, pack(states), pack(observations), key, ts.update + 1), metrics
 
     return Trainer.of(init, update, config)

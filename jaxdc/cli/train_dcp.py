@@ -21,7 +21,10 @@ one vmapped program: one checkpoint holds them all, and each seed gets its
 own ``metrics-sSEED.csv``. ``--tensorboard`` also writes the metrics as
 TensorBoard event files into ``tb/`` (needs the ``tb`` extra: tensorboardX).
 ``--init-from NET|PATH`` (beyond the thesis) starts from a trained actor-critic of the same network, grid size
-and observation instead of a fresh initialisation, recorded with the SHA-256 of its parameters.
+and observation instead of a fresh initialisation, recorded with the SHA-256 of its parameters (a network whose
+body pools over the cells, ``--body-pool``, starts a run of any grid size). ``--grid-sizes 6 8 10`` (beyond the
+thesis, with ``--body-pool``) trains one network on several grid sizes at once: the ``--envs`` environments are split
+evenly over them, and the evaluation during training plays ``--grid-size``.
 """
 
 from __future__ import annotations
@@ -106,6 +109,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--heuristic-rows", type=int, choices=HEURISTIC_ROWS, default=10,
                    help="enn, eqn: the heuristic rows the network weighs: 10, the thesis' (section 4.4.3), or 11, "
                         "which adds Safe-Budget, the route to LPG's item that fits the energy")
+    b.add_argument("--grid-sizes", nargs="+", type=integer("--grid-sizes", low=2), default=None, metavar="N",
+                   help="actor-critics with --body-pool: train on these grid sizes at once, --grid-size among them "
+                        "(the --envs environments split evenly over them; evaluation on --grid-size). Not in the "
+                        "thesis")
     add_a2c_arguments(p)  # --steps --seed(s) --envs --devices ... learner options ... --no-progress
     add_config_arguments(p, "dcp")
     p.add_argument("--target-every", type=positive_int("--target-every"), default=None,
@@ -114,9 +121,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="eqn: epsilon of the evaluation policy (section 4.5.5: 0.05)")
     p.add_argument("--out", default=None, help="run folder (default runs/dcp-NET-RISK-sSEED)")
     p.add_argument("--init-from", default=None, metavar="NET|PATH",
-                   help="start from a trained network of the same kind, grid size and observation (a shipped name, a "
-                        ".msgpack or a run folder) instead of a fresh initialisation: e.g. enn_general fine-tuned on "
-                        "one --risk map. Actor-critics only. Not in the thesis")
+                   help="start from a trained network of the same kind, grid size (any, for a --body-pool network) "
+                        "and observation (a shipped name, a .msgpack or a run folder) instead of a fresh "
+                        "initialisation: e.g. enn_general fine-tuned on one --risk map. "
+                        "Actor-critics only. Not in the thesis")
     p.add_argument("--tensorboard", action="store_true",
                    help="also write the metrics as TensorBoard event files into OUT/tb (needs tensorboardX)")
     return p
@@ -153,7 +161,8 @@ def settle(args):
                            energy_tilt=args.energy_tilt, item_tilt=args.item_tilt,
                            body_features=None if args.body_features is None else tuple(args.body_features),
                            body_hidden=args.body_hidden, body_pool=args.body_pool,
-                           heuristic_rows=args.heuristic_rows)
+                           heuristic_rows=args.heuristic_rows,
+                           grid_sizes=None if args.grid_sizes is None else tuple(args.grid_sizes))
     out = args.out or os.path.join("runs", f"dcp-{args.net}-{args.risk}-s{seed_tag(args)}")
     return settings, run_control(args, out)
 

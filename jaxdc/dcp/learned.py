@@ -76,7 +76,7 @@ def _setting_schema() -> dict[str, pretrained.SettingCheck]:
         "init_fraction": optional(json_number(0.0, 1.0)),
         "init_from": optional(json_string), "init_sha256": optional(json_string),
         "body_features": json_list(json_int(1, MAX_WIDTH)), "body_hidden": json_int(1, MAX_WIDTH),
-        "body_pool": json_choice(POOLS),
+        "body_pool": json_choice(POOLS), "grid_sizes": optional(json_list(json_int(2))),
         "heuristic_rows": json_int(min(HEURISTIC_ROWS), max(HEURISTIC_ROWS)),  # the row counts are consecutive
         "env": json_object({"start": json_choice(dcp_env.STARTS), "items_on_base": json_bool,
                             "idle_terminates": json_bool, "item_order": json_choice(dcp_env.ITEM_ORDERS),
@@ -257,7 +257,13 @@ def _train_state(name: str, meta: dict, source: str) -> Any:
         heur = instances.batched_heuristics(env_params, rows=heuristic_rows(net))
     else:
         heur = navigators.batched_heuristics(env_params, safest_paths(env_params.risk), rows=heuristic_rows(net))
-    trainer = (nstep_q if q_learning else a2c).make_train(config, env, env_params, net, heur)
+    extra = []  # a run over several grid sizes (grid_sizes) holds one group of environments per size
+    for n in [n for n in meta.get("grid_sizes") or () if n != s["grid_size"]]:
+        other = DCP(grid_size=n, total_reward=s["total_reward"], observation=observation_of(meta))
+        params = instances.fixed_instance(other, s["risk"], tuple(s["energy"]), s["max_steps"])
+        extra.append(a2c.EnvGroup(other, params, instances.batched_heuristics(params, rows=heuristic_rows(net))))
+    more = {"extra_envs": tuple(extra)} if extra else {}
+    trainer = (nstep_q if q_learning else a2c).make_train(config, env, env_params, net, heur, **more)
     return trainer.init(jax.random.PRNGKey(0))
 
 

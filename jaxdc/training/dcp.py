@@ -19,6 +19,7 @@ from typing import Any
 import jax
 
 from jaxdc.agents import a2c, nstep_q
+from jaxdc.core import grid
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.tree_check import digest
@@ -28,7 +29,7 @@ from jaxdc.dcp.evaluate import summarize
 from jaxdc.metadata import FORMAT, check_run, recorded_pair, run_settings
 from jaxdc.nets import DCP_NETS, NSTEP_Q
 from jaxdc.nets.registry import body_options
-from jaxdc.training.fields import check_tilt_has_range
+from jaxdc.training.fields import SettingError, check_tilt_has_range
 from jaxdc.training.instances import check_instance_settings, instance_metadata, training_params
 from jaxdc.training.loop import RunControl, RunSpec, TrainingRun, check_batch_fits, check_evaluation_fits, spread
 from jaxdc.training.warm_start import check_init_from, check_same_setting, init_metadata
@@ -68,6 +69,11 @@ class DCPSettings:
       init_from: ``None`` (a fresh initialisation, as the thesis) or a trained actor-critic of the run's network,
         grid size and observation -- a shipped name, a ``.msgpack`` or a ``train.dcp`` run folder -- whose
         parameters start the run (a warm start, beyond the thesis: :func:`start_params`). Not for EQN.
+      grid_sizes: ``None`` (one grid size, ``grid_size``) or several distinct sizes, ``grid_size`` among them, to
+        train on at once (beyond the thesis; docs/generalisation.md, "Other grid sizes"): the ``num_envs``
+        environments are split evenly over the sizes, each drawing its instances as a run of that size would
+        (:func:`~jaxdc.agents.a2c.make_train`'s ``extra_envs``); evaluation stays on ``grid_size``. Needs a body
+        pooled over the cells (``body_pool``) and an actor-critic.
       heuristic_rows: the ENN heuristic rows ENN or EQN reads: 10 (the thesis' ten, section 4.4.3) or 11, which
         adds Safe-Budget (beyond the thesis; :func:`jaxdc.dcp.navigators.safe_budget_action`: the route to LPG's
         item that fits the energy).
@@ -102,6 +108,7 @@ class DCPSettings:
     body_pool: str | None = None
     item_tilt: float = 0.0
     heuristic_rows: int = 10
+    grid_sizes: tuple[int, ...] | None = None
 
     @property
     def per_episode(self) -> bool:
@@ -125,6 +132,8 @@ class DCPSettings:
         if self.heuristic_rows != 10 and not DCP_NETS[self.net].uses_heuristics:
             raise ValueError(f"heuristic_rows={self.heuristic_rows}: network {self.net!r} reads no heuristics "
                              f"(ENN and EQN do)")
+        if self.grid_sizes is not None:
+            object.__setattr__(self, "grid_sizes", check_grid_sizes(self))
         check_init_from(self.init_from)
         if self.init_from is not None and self.uses_q_learning:
             raise ValueError(f"init_from={self.init_from!r}: a warm start applies to the actor-critics (A2C); "
@@ -146,18 +155,56 @@ class DCPSettings:
         return {**self.body(), **({} if self.heuristic_rows == 10 else {"heuristic_rows": self.heuristic_rows})}
 
 
+def check_grid_sizes(s: DCPSettings) -> tuple[int, ...]:
+    """``s.grid_sizes`` checked (a :class:`~jaxdc.training.fields.SettingError` naming the fields otherwise):
+    at least two distinct sizes, each a DCP grid size, ``grid_size`` among them, a network that plays every size
+    and trains with A2C, and ``num_envs`` (and each minibatch) split evenly over the sizes."""
+    from jaxdc.dcp.env import MAX_RANGE
+    from jaxdc.nets.body import GRID_FREE_POOLS
+
+    sizes = s.grid_sizes
+    if isinstance(sizes, (str, bytes)) or not isinstance(sizes, (tuple, list)):
+        raise SettingError(f"{{0}} must be a list of grid sizes, got {SettingError.text(repr(sizes))}", "grid_sizes")
+    try:
+        sizes = tuple(grid.check_grid_size(n, max_cells=MAX_RANGE) for n in sizes)
+    except (TypeError, ValueError) as e:
+        raise SettingError(f"{{0}}: {SettingError.text(e)}", "grid_sizes") from None
+    shown = SettingError.text(" ".join(map(str, sizes)))
+    if len(sizes) < 2 or len(set(sizes)) != len(sizes):
+        raise SettingError(f"{{0}} {shown}: give at least two distinct sizes (one size is {{1}})",
+                           "grid_sizes", "grid_size")
+    if s.grid_size not in sizes:
+        raise SettingError(f"{{0}} {shown} must include {{1}} ({s.grid_size}), the size evaluated during "
+                           "training", "grid_sizes", "grid_size")
+    if s.uses_q_learning:
+        raise SettingError(f"{{0}} trains an actor-critic (A2C) over several grid sizes; {s.net!r} trains with "
+                           "n-step Q-learning", "grid_sizes")
+    if s.body_pool not in GRID_FREE_POOLS:
+        raise SettingError(f"{{0}} {shown} needs a network that plays every grid size: set {{1}} to one of "
+                           f"{SettingError.text(GRID_FREE_POOLS)} (the flattened body's parameters depend on the size)",
+                           "grid_sizes", "body_pool")
+    c, minibatches = s.config, getattr(s.config, "minibatches", 1)  # an A2CConfig here (EQN refused above)
+    if c.num_envs % len(sizes) or (c.batch_size // len(sizes)) % minibatches:
+        raise SettingError(f"{{0}} ({c.num_envs}) must be a multiple of the {len(sizes)} grid sizes of {{1}}, and "
+                           f"{{2}} ({minibatches}) must divide each size's share of a rollout "
+                           f"({{0}} x {{3}} / {len(sizes)})", "num_envs", "grid_sizes", "minibatches", "t_max")
+    return sizes
+
+
 def start_params(s: DCPSettings) -> tuple[Any, str] | None:
     """``(params, digest)`` that start the run of ``s`` (``None`` without ``init_from``): the parameters of the
     network ``s.init_from`` (:func:`jaxdc.dcp.learned.load`) and their SHA-256 (recorded as ``init_sha256``).
 
-    The source must be the run's network, trained on the same grid size and observation (the shapes of its
-    parameters); its risk map, budget and items may differ -- that is what a warm start is for (e.g. ``enn_general``
+    The source must be the run's network, trained on the same grid size (unless its body pools over the cells:
+    :func:`jaxdc.dcp.learned.plays_any_grid`) and observation (the shapes of its parameters); its risk map, budget
+    and items may differ -- that is what a warm start is for (e.g. ``enn_general``
     fine-tuned on one map). Anything else is a ``ValueError`` naming ``init_from``."""
     if s.init_from is None:
         return None
     source = learned.load(s.init_from)
+    grid_size = s.grid_size if learned.plays_any_grid(source.metadata) else source.setting()["grid_size"]
     check_same_setting(f"init_from={s.init_from!r} ({source.source})",
-                       {"net": (source.net_name, s.net), "grid_size": (source.setting()["grid_size"], s.grid_size),
+                       {"net": (source.net_name, s.net), "grid_size": (grid_size, s.grid_size),
                         "observation": (source.observation, s.observation),
                         "heuristic_rows": (source.heuristic_rows, s.heuristic_rows)})
     return source.params, digest(source.params)
@@ -173,6 +220,7 @@ def run_metadata(s: DCPSettings, seeds: Iterable[int], init_sha256: str | None =
         "algorithm": dataclasses.asdict(s.config),
         **instance_metadata(s),
         **({} if s.item_tilt == 0.0 else {"item_tilt": s.item_tilt}),
+        **({} if s.grid_sizes is None else {"grid_sizes": list(s.grid_sizes)}),
         **{k: list(v) if isinstance(v, tuple) else v for k, v in s.network_options().items()},
         **init_metadata(s.init_from, init_sha256),
     }
@@ -192,6 +240,11 @@ def settings_from_metadata(meta: object, where: str) -> tuple[DCPSettings, tuple
     for k in ("map_seeds", "energy_range"):  # pairs, stored as lists
         if meta.get(k) is not None:
             setting[k] = recorded_pair(meta[k], k, where)
+    if meta.get("grid_sizes") is not None:  # a list; DCPSettings checks its entries
+        sizes = meta["grid_sizes"]
+        if not isinstance(sizes, list):
+            raise ValueError(f"{where}: key 'grid_sizes': must be a list of grid sizes, got {sizes!r}")
+        setting["grid_sizes"] = tuple(sizes)
     return run_settings(DCPSettings, meta, where, energy=energy, **setting)
 
 
@@ -209,6 +262,7 @@ class DCPRun(TrainingRun):
         self.env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward,
                                min_total_reward=s.min_total_reward, observation=s.observation,
                                item_tilt=s.item_tilt)
+        extra: list[a2c.EnvGroup] = []
         if s.per_episode:
             self.env_params = training_params(s, self.env)
             check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
@@ -218,7 +272,15 @@ class DCPRun(TrainingRun):
             check_batch_fits(s.config, self.env, self.env_params, len(control.seeds))
             table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
             self.heuristics = navigators.batched_heuristics(self.env_params, table, rows=s.heuristic_rows)
+        for n in [] if s.grid_sizes is None else [n for n in s.grid_sizes if n != s.grid_size]:
+            env = dcp_env.DCP(grid_size=n, total_reward=s.total_reward, min_total_reward=s.min_total_reward,
+                              observation=s.observation, item_tilt=s.item_tilt)
+            params = training_params(s, env)  # the maps of the generator (or the preset) drawn at this size
+            check_batch_fits(s.config, env, params, len(control.seeds))  # each size as if it had every env
+            extra.append(a2c.EnvGroup(env, params, instances.batched_heuristics(params, rows=s.heuristic_rows)))
         warm = {} if init_params is None else {"init_params": init_params}
+        if extra:
+            warm["extra_envs"] = tuple(extra)
         trainer, mesh = spread(algo.make_train(s.config, self.env, self.env_params, self.net, self.heuristics,
                                                **warm), control, s.config.num_envs)
         eval_env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward, observation=s.observation)
