@@ -46,6 +46,7 @@ class Preset:
     body_hidden: int | None = None
     body_pool: str | None = None
     heuristic_rows: int | None = None
+    grid_sizes: tuple[int, ...] | None = None
     total_steps: int | None = None
     num_envs: int | None = None
     t_max: int | None = None
@@ -65,11 +66,14 @@ class Preset:
     algo: str | None = None
     mask: str | None = None
     init_from: str | None = None
+    #: the seed the shipped file was trained with, where it is not the given one (train.ship's ``--seed``, 0): not
+    #: a setting of the recipe, so ``--config`` leaves the seed to the command line
+    seed: int | None = None
 
     def fields(self) -> dict[str, Any]:
         """``{field: value}`` of the settings the preset sets, in order."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
-                if f.name not in ("problem", "description") and getattr(self, f.name) is not None}
+                if f.name not in ("problem", "description", "seed") and getattr(self, f.name) is not None}
 
     def flags(self) -> list[str]:
         """The preset as ``train.<problem>`` flags (``--net enn --risk high --energy 8 16 ...``)."""
@@ -143,6 +147,14 @@ BEYOND["enn_general_pool"] = dataclasses.replace(
     BEYOND["enn_general_budget"], body_pool="mean_max",
     description="every map, budget and grid size (beyond the thesis: enn_general_budget's recipe with a body "
                 "pooled over the cells)")
+# enn_general_pool trained on over three grid sizes at once (docs/generalisation.md, "Several grid sizes"): the 48
+# environments split 16 / 16 / 16 over 6x6, 8x8 and 10x10, each size drawing its maps from the same generator and
+# seeds; 2M more steps from the shipped enn_general_pool at lr 1e-4, seed 1 (6M in all).
+BEYOND["enn_general_sizes"] = dataclasses.replace(
+    BEYOND["enn_general_pool"], grid_sizes=(6, 8, 10), num_envs=48, lr=1e-4, total_steps=2_000_000,
+    init_from="enn_general_pool", seed=1,
+    description="every map, budget and grid size (beyond the thesis: enn_general_pool trained on over 6x6, 8x8 "
+                "and 10x10 at once)")
 #: The strong DCG collectors (docs/dcg.md, "Strong collectors"; beyond the thesis): the PPO-style options at
 #: lr 1e-3, 3M steps (``NET_strong``) and the same recipe at the thesis' 1M steps (``NET_strong_1m``, Fig. 5.6).
 DCG_STRONG_RECIPE: dict[str, Any] = {**PPO, "lr": 1e-3, "eval_episodes": 2000}

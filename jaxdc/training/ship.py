@@ -38,9 +38,11 @@ def train_command(name: str, steps: int, seed: int, runs: str) -> list[str]:
     """The ``python -m train.dcp`` (or, for a DCG entry, ``train.dcg``) command line that trains shipped
     network ``name``, as its metadata records it.
 
-    ``steps`` applies unless the entry fixes its own ``total_steps`` (the beyond-the-thesis networks).
+    ``steps`` applies unless the entry fixes its own ``total_steps`` (the beyond-the-thesis networks), and ``seed``
+    unless it fixes its own ``seed`` (a network shipped from another seed's run).
     """
     preset = EVERY[name]
+    seed = seed if preset.seed is None else preset.seed
     args = preset.flags()
     own_steps = [] if preset.total_steps is not None else ["--steps", str(steps)]
     if preset.problem == "dcg":
@@ -77,7 +79,8 @@ def export(name: str, run: str, command: list[str], out: str) -> str:
         "net": learned.net_name, "problem": "dcp", **learned.setting(),
         "min_total_reward": meta["min_total_reward"],
         **{k: meta[k] for k in ("observation", "risk_maps", "map_seeds", "energy_range", "energy_tilt", "item_tilt",
-                                   "init_fraction", "heuristic_rows", *learned_lib.BODY_KEYS) if k in meta},
+                                   "init_fraction", "heuristic_rows", *learned_lib.BODY_KEYS, "grid_sizes",
+                                   "init_from", "init_sha256") if k in meta},
         "env": {"start": env.start, "items_on_base": env.items_on_base, "idle_terminates": env.idle_terminates,
                 "item_order": env.item_order},
         "steps": int(last.get("env_steps") or meta["algorithm"]["total_steps"]),

@@ -153,3 +153,24 @@ def test_the_pooled_network_records_its_recipe_and_plays_other_grid_sizes():
     with pytest.raises(ValueError, match="trained on a 8x8 grid; it cannot play a 6x6 grid"):
         learned.load("enn_general_budget", grid_size=6)
     assert "body_pool" not in pretrained.read_metadata(pretrained.shipped("dcp", "enn_general_budget"))
+
+
+def test_the_network_of_several_grid_sizes_records_its_sizes_and_its_start():
+    """enn_general_sizes: enn_general_pool trained on over 6x6, 8x8 and 10x10 at once; --config settles to the sizes
+    and the warm start, and the shipped file records both and loads for any grid size."""
+    from jaxdc import pretrained
+    from jaxdc.cli import train_dcp
+    from jaxdc.cli.train_common import parse_with_config
+    from jaxdc.dcp import learned
+    from jaxdc.training import dcp
+
+    args = parse_with_config(train_dcp.build_parser(), ["--config", "enn_general_sizes"], "dcp",
+                             dcp.settings_from_metadata)
+    settings, _ = train_dcp.settle(args)
+    assert settings.grid_sizes == (6, 8, 10) and settings.grid_size == 8 and settings.config.num_envs == 48
+    assert settings.init_from == "enn_general_pool" and settings.body_pool == "mean_max"
+    shipped = pretrained.read_metadata(pretrained.shipped("dcp", "enn_general_sizes"))
+    assert shipped["grid_sizes"] == [6, 8, 10] and shipped["init_from"] == "enn_general_pool"
+    assert shipped["seed"] == 1 and shipped["grid_size"] == 8
+    for size in (7, 12):
+        assert learned.load("enn_general_sizes", grid_size=size).net.body_pool == "mean_max"
