@@ -108,6 +108,19 @@ def check_divisible(num_envs: int, num_devices: int) -> None:
                          f"use a multiple of {d} or fewer devices")
 
 
+def check_batched_divisible(state: Any, num_devices: int, seed_axis: bool = False) -> None:
+    """Raise a ``ValueError`` unless every environment batch of the training state (``state``, shapes suffice)
+    splits evenly over ``num_devices``: with ``make_train``'s ``extra_envs`` each group holds ``num_envs / G``
+    environments, which must be a multiple of the devices too."""
+    axis = 1 if seed_axis else 0
+    for name in BATCHED_FIELDS:
+        for leaf in jax.tree_util.tree_leaves(getattr(state, name)):
+            if leaf.shape[axis] % num_devices:
+                raise ValueError(f"an environment batch of {leaf.shape[axis]} (num_envs, or its share per "
+                                 f"environment group with extra_envs) must be divisible by the number of devices "
+                                 f"({num_devices})")
+
+
 def parallelize(trainer: Trainer, mesh: Mesh | None = None, num_seeds: int | None = None) -> Trainer:
     """The same :class:`Trainer` spread over ``mesh`` (default: all devices) and, if ``num_seeds``, vmapped.
 
@@ -123,7 +136,9 @@ def parallelize(trainer: Trainer, mesh: Mesh | None = None, num_seeds: int | Non
     key_shape = jax.eval_shape(jax.random.PRNGKey, 0)
     if num_seeds is not None:
         key_shape = jax.ShapeDtypeStruct((num_seeds,) + key_shape.shape, key_shape.dtype)
-    shardings = state_shardings(jax.eval_shape(vm(trainer.init), key_shape), mesh, num_seeds is not None)
+    shapes = jax.eval_shape(vm(trainer.init), key_shape)
+    check_batched_divisible(shapes, mesh.devices.size, num_seeds is not None)
+    shardings = state_shardings(shapes, mesh, num_seeds is not None)
     rep = NamedSharding(mesh, P())
 
     def run(state, n: int):

@@ -70,7 +70,7 @@ class DCPSettings:
         grid size and observation -- a shipped name, a ``.msgpack`` or a ``train.dcp`` run folder -- whose
         parameters start the run (a warm start, beyond the thesis: :func:`start_params`). Not for EQN.
       grid_sizes: ``None`` (one grid size, ``grid_size``) or several distinct sizes, ``grid_size`` among them, to
-        train on at once (beyond the thesis; docs/generalisation.md, "Other grid sizes"): the ``num_envs``
+        train on at once (beyond the thesis; docs/generalisation.md, "Several grid sizes at once"): the ``num_envs``
         environments are split evenly over the sizes, each drawing its instances as a run of that size would
         (:func:`~jaxdc.agents.a2c.make_train`'s ``extra_envs``); evaluation stays on ``grid_size``. Needs a body
         pooled over the cells (``body_pool``) and an actor-critic.
@@ -282,7 +282,7 @@ class DCPRun(TrainingRun):
         if extra:
             warm["extra_envs"] = tuple(extra)
         trainer, mesh = spread(algo.make_train(s.config, self.env, self.env_params, self.net, self.heuristics,
-                                               **warm), control, s.config.num_envs)
+                                               **warm), control, s.config.num_envs, 1 + len(extra))
         eval_env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward, observation=s.observation)
 
         def episodes(params, key):

@@ -118,8 +118,9 @@ class RunSpec:
     postfix_key: str = "eval_reward"
 
 
-def spread(trainer: Trainer, control: RunControl, num_envs: int) -> tuple[Trainer, Any]:
-    """``(trainer, mesh)``: ``trainer`` split over ``control.devices`` (default all) and vmapped over its seeds."""
+def spread(trainer: Trainer, control: RunControl, num_envs: int, groups: int = 1) -> tuple[Trainer, Any]:
+    """``(trainer, mesh)``: ``trainer`` split over ``control.devices`` (default all) and vmapped over its seeds;
+    ``groups``: the environment groups (grid sizes) ``num_envs`` is split over, each split over the devices."""
     available = len(jax.devices())
     if control.devices is not None and control.devices > available:
         raise SettingError(f"{{0}} {control.devices}: JAX sees only {available} device(s)", "devices")
@@ -127,6 +128,11 @@ def spread(trainer: Trainer, control: RunControl, num_envs: int) -> tuple[Traine
     if num_envs % devices:
         raise SettingError(f"{{0}} ({num_envs}) must be divisible by the number of devices ({devices}); "
                            "change {0} or pass {1}", "num_envs", "devices")
+    share = num_envs // groups
+    if share % devices:
+        raise SettingError(f"{{0}} ({num_envs}) split over the {groups} grid sizes of {{1}} gives {share} environments "
+                           f"per size, which must be divisible by the number of devices ({devices}); change {{0}} or "
+                           "pass {2}", "num_envs", "grid_sizes", "devices")
     mesh = parallel.data_mesh(devices)
     return parallel.parallelize(trainer, mesh, len(control.seeds) if control.multi else None), mesh
 

@@ -145,3 +145,31 @@ def test_settings_refuse_a_bad_grid_sizes_value():
                             body_pool="mean_max")
     ok = dcp.DCPSettings(net="enn", config=config, grid_size=5, grid_sizes=[4, 5], body_pool="mean_max")
     assert ok.grid_sizes == (4, 5)
+
+
+def test_each_sizes_share_must_split_over_the_devices(tmp_path):
+    """6 environments over 2 sizes are 3 per size: on 2 devices that share cannot split evenly (6 itself could)."""
+    import subprocess
+    import sys
+
+    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2", JAX_PLATFORMS="cpu")
+    argv = list(TINY)
+    argv[argv.index("--envs") + 1] = "6"
+    done = subprocess.run([sys.executable, "-m", "train.dcp", *argv, "--devices", "2", "--out", str(tmp_path / "r")],
+                          env=env, capture_output=True, text=True, timeout=300,
+                          cwd=os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
+    assert done.returncode == 2, done.stderr
+    for needle in ("--envs (6)", "--grid-sizes", "3 environments per size", "--devices"):
+        assert needle in done.stderr, (needle, done.stderr)
+    assert "Traceback" not in done.stderr
+
+
+def test_the_device_split_checks_every_groups_batch():
+    """parallelize's check (jaxdc.agents.parallel.check_batched_divisible) looks at each group's batch, not at
+    num_envs alone: 6 environments as 3 + 3 do not split over 2 devices."""
+    from jaxdc.agents import parallel
+
+    state = jax.eval_shape(_trainer(num_envs=6).init, jax.random.PRNGKey(0))
+    parallel.check_batched_divisible(state, 3)  # 3 per group: one per device
+    with pytest.raises(ValueError, match="batch of 3 .* devices .2."):
+        parallel.check_batched_divisible(state, 2)
