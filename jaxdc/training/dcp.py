@@ -259,9 +259,11 @@ class DCPRun(TrainingRun):
         self.claim(control, meta)  # lock the folder, check a resume: before the build
         algo = nstep_q if s.uses_q_learning else a2c
         self.net = learned.make_network(s.net, s.network_options())
-        self.env = dcp_env.DCP(grid_size=s.grid_size, total_reward=s.total_reward,
-                               min_total_reward=s.min_total_reward, observation=s.observation,
-                               item_tilt=s.item_tilt)
+        def training_env(n: int) -> dcp_env.DCP:  # the run's training environment on an n x n grid
+            return dcp_env.DCP(grid_size=n, total_reward=s.total_reward, min_total_reward=s.min_total_reward,
+                               observation=s.observation, item_tilt=s.item_tilt)
+
+        self.env = training_env(s.grid_size)
         extra: list[a2c.EnvGroup] = []
         if s.per_episode:
             self.env_params = training_params(s, self.env)
@@ -273,8 +275,7 @@ class DCPRun(TrainingRun):
             table = jax.jit(safest_paths)(self.env_params.risk)  # once per run: the risk map is fixed
             self.heuristics = navigators.batched_heuristics(self.env_params, table, rows=s.heuristic_rows)
         for n in [] if s.grid_sizes is None else [n for n in s.grid_sizes if n != s.grid_size]:
-            env = dcp_env.DCP(grid_size=n, total_reward=s.total_reward, min_total_reward=s.min_total_reward,
-                              observation=s.observation, item_tilt=s.item_tilt)
+            env = training_env(n)
             params = training_params(s, env)  # the maps of the generator (or the preset) drawn at this size
             check_batch_fits(s.config, env, params, len(control.seeds))  # each size as if it had every env
             extra.append(a2c.EnvGroup(env, params, instances.batched_heuristics(params, rows=s.heuristic_rows)))
