@@ -13,7 +13,9 @@ finish in under 10 minutes on one GPU; it reuses the rows of
 
 * ``env``: ``jax_random`` (the DCP of Table 4.3, a uniformly random policy with
   auto-reset, vmapped, in ``lax.scan``, jitted) and ``jax_dcg_random`` (the DCG of
-  section 5.5.1) at B = 4,096 .. 262,144 environments, ``--steps`` steps each;
+  section 5.5.1) at B = 4,096 .. 262,144 environments, ``--steps`` steps each, and the
+  same two stepped by :func:`jaxdc.core.batched.step_batched` (``jax_batched``,
+  ``jax_dcg_batched``: batch-level random numbers);
 * ``train``: ENN (``--net``) on the DCP with the A2C learner of Algorithm 10 (``jaxdc enn``) and
   with the PPO-style options (``jaxdc enn ppo``, :func:`benchmarks.train_throughput.ppo_options`),
   ``t_max`` 32, updates in ``lax.scan`` (layout ``scan``), about ``--train-steps``
@@ -59,8 +61,10 @@ DEFAULT_TRAIN_STEPS = 1 << 21
 DEFAULT_BUDGET_S = 540.0
 #: ``--small``: a CPU smoke setting.
 SMALL = {"batch_sizes": [64], "steps": 4, "train_envs": [8], "train_steps": 8 * 32 * 2, "repeats": 1}
-#: The environment rows: (benchmarks.env_throughput game, row name).
-GAMES = (("dcp", "jax_random"), ("dcg", "jax_dcg_random"))
+#: The environment rows: (benchmarks.env_throughput game, row name, batch-level random numbers).
+GAMES = (("dcp", "jax_random", False), ("dcp", "jax_batched", True), ("dcg", "jax_dcg_random", False),
+         ("dcg", "jax_dcg_batched", True))
+GAME_NAMES = tuple(dict.fromkeys(g for g, _, _ in GAMES))
 #: The learners: (row name suffix, PPO-style options).
 LEARNERS = (("a2c", False), ("ppo", True))
 NETS = ("enn", "cnn", "linear")
@@ -79,8 +83,8 @@ def device_info() -> dict:
             "load_average_1m": round(os.getloadavg()[0], 2), "cpu_count": os.cpu_count()}
 
 
-def env_row(game: str, batch: int, steps: int, repeats: int) -> dict:
-    row = env_throughput.bench_jax("random", batch, steps, repeats, game=game)
+def env_row(game: str, batch: int, steps: int, repeats: int, batched: bool = False) -> dict:
+    row = env_throughput.bench_jax("random", batch, steps, repeats, game=game, batched=batched)
     return {"kind": "env", "impl": row["impl"], "batch": batch, "env_steps": row["env_steps"],
             "seconds": row["seconds"], "compile_s": row["compile_s"], "steps_per_s": row["steps_per_s"]}
 
@@ -94,8 +98,8 @@ def train_row(net: str, learner: str, ppo: bool, num_envs: int, chunk_steps: int
 
 def plan(args: argparse.Namespace) -> list[tuple[str, tuple]]:
     """The rows in the order they run: ``(label, (function, arguments))``."""
-    rows = [(f"{name} B={b}", (env_row, (game, b, args.steps, args.repeats)))
-            for game, name in GAMES if game in args.games for b in args.batch_sizes]
+    rows = [(f"{name} B={b}", (env_row, (game, b, args.steps, args.repeats, batched)))
+            for game, name, batched in GAMES if game in args.games for b in args.batch_sizes]
     rows += [(f"{args.net} {learner} envs={n}", (train_row, (args.net, learner, ppo, n, args.train_steps,
                                                               args.repeats)))
              for learner, ppo in LEARNERS if learner in args.learners for n in args.train_envs]
@@ -151,7 +155,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--repeats", type=positive_int("--repeats"), default=None, help="timed repeats (default 3)")
     p.add_argument("--budget-s", type=integer("--budget-s", low=0), default=int(DEFAULT_BUDGET_S),
                    help="skip the rows that would start after this many seconds")
-    p.add_argument("--games", nargs="+", choices=[g for g, _ in GAMES], default=[g for g, _ in GAMES],
+    p.add_argument("--games", nargs="+", choices=GAME_NAMES, default=list(GAME_NAMES),
                    help="the environment rows (default both)")
     p.add_argument("--learners", nargs="+", choices=[name for name, _ in LEARNERS],
                    default=[name for name, _ in LEARNERS], help="the training rows (default both)")

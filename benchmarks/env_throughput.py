@@ -9,6 +9,10 @@ Measures env-steps/s, all in one process so that the ratios are taken side by si
 
 * ``jax_random``: a uniformly random policy with auto-reset (``env.step``, vmapped
   over the batch, inside ``lax.scan`` over T steps, jitted);
+* ``jax_batched``, ``jax_dcg_batched``, ``jax_dcg_team_batched``: the same random policy stepped by
+  :func:`jaxdc.core.batched.step_batched` (one key per batch step, the step's random numbers drawn for the
+  whole batch at once, fresh states only for the finished environments); issue 30's target is
+  ``jax_batched`` >= 1.2x ``numpy_batched`` at B = 4096;
 * ``jax_safe_reward``: the Safe-Reward navigator (Algorithm 9) acting on the batched
   states, stepping with auto-reset (the safest-path table is computed once, untimed);
 * ``jax_dcg_random``: the same for the DCG (section 5.5.1 setting) at every batch size;
@@ -17,8 +21,9 @@ Measures env-steps/s, all in one process so that the ratios are taken side by si
   same game otherwise; a step is one team step); the issue-29 target is a per-collector cost within 2x of
   the one-collector step at the same batch size (``dcg_team_per_collector_within_2x_at_B``);
 * ``jax_handbatched``: :mod:`benchmarks.handbatched_dcp`, the same rules hand-batched in
-  JAX (one key per step for the batch, masks, a full fresh reset drawn for every
-  environment on every step): a yardstick of what JAX does here, at every batch size;
+  JAX (one key per step for the batch, flat arrays, the observation built every step, fresh
+  states drawn only for the finished environments): a yardstick of what JAX does here, at
+  every batch size;
 * ``numpy_batched``: :class:`benchmarks.numpy_dcp.BatchedNumpyDCP`, NumPy over the batch
   (only the finished environments are reset), at every batch size;
 * ``numpy_loop``: :func:`benchmarks.numpy_dcp.plain_loop`, one environment in a plain
@@ -31,7 +36,9 @@ Measures env-steps/s, all in one process so that the ratios are taken side by si
   ``max_steps=200``: compile time and run time after compilation, separately.
 
 JAX timings: one warm-up call (compile), then the best of ``--repeats`` calls, each
-ended by ``block_until_ready``. Results are printed as a Markdown table (or, with
+ended by ``block_until_ready``; the rows of one game and batch size that are compared (the public step,
+its reset slots and the batched step) are timed in turn, one call each per repeat. Results are
+printed as a Markdown table (or, with
 ``--json``, as exactly one JSON object on stdout; progress goes to stderr) and written
 to ``results/benchmarks/env_throughput.{json,md}`` (``--out-dir``), which land together.
 Every count flag must be an integer >= 1 (int32), ``--out-dir`` must be writable and the
@@ -60,9 +67,11 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchmarks import handbatched_dcp, numpy_dcp  # noqa: E402
+from benchmarks.env_throughput_table import TABLE43_NAVIGATORS, TEAM_COLLECTORS, markdown, targets  # noqa: E402
 from benchmarks.publish import publish  # noqa: E402
 from jaxdc.cli.args import positive_int  # noqa: E402
 from jaxdc.cli.runner import run as run_cli  # noqa: E402
+from jaxdc.core.batched import step_batched  # noqa: E402
 from jaxdc.core.env import step_batch  # noqa: E402
 from jaxdc.core.paths import safest_paths  # noqa: E402
 from jaxdc.dcp import navigators  # noqa: E402
@@ -71,16 +80,8 @@ from jaxdc.dcp.evaluate import evaluate_heuristic  # noqa: E402
 from jaxdc.io import check_output_folder, json_text  # noqa: E402
 
 DEFAULT_BATCH_SIZES = (1, 64, 1024, 4096, 16384)
-TABLE43_NAVIGATORS = ("safe_reward", "safe_recharge", "safe_both", "safe_neither")
 #: The default output folder, under the current directory (like every other command).
 RESULTS_DIR = Path("results") / "benchmarks"
-#: Targets: env-steps/s of jax_random at B=4096, its share of jax_handbatched's, Table 4.3's run time.
-TARGET_RANDOM_4096 = 5e6  # steps/s
-TARGET_SHARE_HANDBATCHED = 0.65
-TARGET_TABLE43_S = 5.0
-#: The team of the ``jax_dcg_team_random`` row, and the per-collector cost target against the one-collector step.
-TEAM_COLLECTORS = 2
-TARGET_TEAM_PER_COLLECTOR = 2.0
 
 
 def log(msg: str) -> None:
@@ -118,10 +119,12 @@ def _time_best(fn, repeats: int) -> tuple[float, float]:
     return first, best
 
 
-def make_rollout(env, params, batch: int, steps: int, policy: str, reset_slots: int | None = None):
+def make_rollout(env, params, batch: int, steps: int, policy: str, reset_slots: int | None = None,
+                 batched: bool = False):
     """A jitted ``rollout(key) -> (final state, total reward)`` of ``steps`` auto-reset steps.
 
-    ``reset_slots`` is passed to :func:`jaxdc.core.env.step_batch` (None: a reset per env and step).
+    ``reset_slots`` is passed to :func:`jaxdc.core.env.step_batch` (None: a reset per env and step);
+    ``batched``: the steps are :func:`jaxdc.core.batched.step_batched`'s (batch-level random numbers).
     """
     table = safest_paths(params.risk) if policy == "safe_reward" else None
 
@@ -140,7 +143,10 @@ def make_rollout(env, params, batch: int, steps: int, policy: str, reset_slots: 
             key, obs, state, total = carry
             key, k_act, k_step = jax.random.split(key, 3)
             action = act(k_act, state)
-            obs, state, reward, _, _, _ = step_batch(env, k_step, state, action, params, reset_slots)
+            if batched:
+                obs, state, reward, _, _, _ = step_batched(env, k_step, state, action, params)
+            else:
+                obs, state, reward, _, _, _ = step_batch(env, k_step, state, action, params, reset_slots)
             return (key, obs, state, total + reward.sum()), None
 
         carry, _ = jax.lax.scan(body, (k_loop, obs, state, jnp.float32(0.0)), None, length=steps)
@@ -166,17 +172,45 @@ def check_memory(batch_sizes) -> None:
     memory.check_fits(4 * b * per_env, f"a batch of {b} environments", "--batch-sizes")
 
 
-def bench_jax(policy: str, batch: int, steps: int, repeats: int, seed: int = 0, reset_slots=None,
-              game: str = "dcp") -> dict:
+def _jax_case(policy: str, batch: int, steps: int, seed: int = 0, reset_slots=None, game: str = "dcp",
+              batched: bool = False):
+    """``(row name, call)`` of one JAX row: ``call()`` runs its jitted rollout once."""
     env, params = make_env(game)
-    rollout = make_rollout(env, params, batch, steps, policy, reset_slots)
+    rollout = make_rollout(env, params, batch, steps, policy, reset_slots, batched)
     key = jax.random.key(seed)
-    first, best = _time_best(lambda: rollout(key), repeats)
+    impl = {"dcp": "jax_", "dcg": "jax_dcg_", "dcg_team": "jax_dcg_team_"}[game] + (
+        "batched" if batched else policy) + ("" if reset_slots is None else " [reset_slots=B/4]")
+    return impl, lambda: rollout(key)
+
+
+def _row(impl: str, batch: int, steps: int, first: float, best: float) -> dict:
     n = batch * steps
-    impl = {"dcp": "jax_", "dcg": "jax_dcg_", "dcg_team": "jax_dcg_team_"}[game] + policy + (
-        "" if reset_slots is None else " [reset_slots=B/4]")
     return {"impl": impl, "batch": batch, "steps": steps, "env_steps": n,
             "seconds": best, "compile_s": max(first - best, 0.0), "steps_per_s": n / best}
+
+
+def bench_jax(policy: str, batch: int, steps: int, repeats: int, seed: int = 0, reset_slots=None,
+              game: str = "dcp", batched: bool = False) -> dict:
+    impl, call = _jax_case(policy, batch, steps, seed, reset_slots, game, batched)
+    return _row(impl, batch, steps, *_time_best(call, repeats))
+
+
+def bench_jax_side_by_side(cases: list[dict], batch: int, steps: int, repeats: int) -> list[dict]:
+    """The rows of ``cases`` (``_jax_case`` keywords) timed in turn, repeat by repeat (best of ``repeats`` each),
+    so that a slow spell of this noisy machine falls on all of them alike and their ratios stay fair."""
+    calls = [_jax_case(batch=batch, steps=steps, **case) for case in cases]
+    first = []
+    for _, call in calls:
+        t0 = time.perf_counter()
+        jax.block_until_ready(call())
+        first.append(time.perf_counter() - t0)
+    best = [math.inf] * len(calls)
+    for _ in range(repeats):
+        for i, (_, call) in enumerate(calls):
+            t0 = time.perf_counter()
+            jax.block_until_ready(call())
+            best[i] = min(best[i], time.perf_counter() - t0)
+    return [_row(impl, batch, steps, f, b) for (impl, _), f, b in zip(calls, first, best)]
 
 
 def bench_handbatched(batch: int, steps: int, repeats: int, seed: int = 0) -> dict:
@@ -258,15 +292,19 @@ def run(args) -> dict:
             t = steps_for(b, args.steps, args.quick)
             if policy == "safe_reward":
                 t = max(1, t // 4) if args.steps is None else t  # ~4x slower per step
-            for slots in (None, max(1, b // 4)) if policy == "random" else (None,):
-                row = bench_jax(policy, b, t, repeats, reset_slots=slots)
+            cases = [{"policy": policy}]
+            if policy == "random":  # the public step, reset slots and the batched step, side by side
+                cases += [{"policy": policy, "reset_slots": max(1, b // 4)}, {"policy": policy, "batched": True}]
+            for row in bench_jax_side_by_side(cases, b, t, repeats):
                 log(f"{row['impl']:>16} B={b:<6} T={t:<5} {row['steps_per_s']:>14,.0f} steps/s "
                     f"(compile {row['compile_s']:.2f} s)")
                 rows.append(row)
     for b in ([min(args.batch_sizes)] if args.quick else args.batch_sizes):
         t = steps_for(b, args.steps, args.quick)
-        for row in (bench_jax("random", b, t, repeats, game="dcg"), bench_jax("random", b, t, repeats, game="dcg_team"),
-                    bench_handbatched(b, t, repeats)):
+        pairs = [bench_jax_side_by_side([{"policy": "random", "game": game}, {"policy": "random", "game": game,
+                                                                             "batched": True}], b, t, repeats)
+                 for game in ("dcg", "dcg_team")]
+        for row in (*pairs[0], *pairs[1], bench_handbatched(b, t, repeats)):
             log(f"{row['impl']:>16} B={b:<6} T={t:<5} {row['steps_per_s']:>14,.0f} steps/s "
                 f"(compile {row['compile_s']:.2f} s)")
             rows.append(row)
@@ -306,72 +344,6 @@ def run(args) -> dict:
         result["table43"] = bench_table43(episodes, repeats, navs)
     result["targets"] = targets(result)
     return result
-
-
-def targets(result: dict) -> dict:
-    out = {}
-    def at(impl, b=4096):
-        return next((r["steps_per_s"] for r in result["rows"] if r["impl"] == impl and r["batch"] == b), None)
-
-    rate = at("jax_random")
-    if rate is not None:
-        out["random_4096_ge_5M"] = {"value": rate, "target": TARGET_RANDOM_4096, "met": rate >= TARGET_RANDOM_4096}
-        if at("jax_handbatched"):
-            share = rate / at("jax_handbatched")
-            out["random_4096_share_of_handbatched"] = {"value": share, "target": TARGET_SHARE_HANDBATCHED,
-                                                       "met": share >= TARGET_SHARE_HANDBATCHED}
-        if at("numpy_batched"):
-            ratio = rate / at("numpy_batched")
-            out["random_4096_over_numpy_batched"] = {"value": ratio, "target": 1.0, "met": ratio > 1.0}
-    dcg = {r["batch"]: r["steps_per_s"] for r in result["rows"] if r["impl"] == "jax_dcg_random"}
-    dcp = {r["batch"]: r["steps_per_s"] for r in result["rows"] if r["impl"] == "jax_random"}
-    for b in sorted(set(dcg) & set(dcp)):
-        ratio = dcp[b] / dcg[b]
-        out[f"dcg_within_2x_of_dcp_at_{b}"] = {"value": ratio, "target": 2.0, "met": ratio <= 2.0}
-    team = {r["batch"]: r["steps_per_s"] for r in result["rows"] if r["impl"] == "jax_dcg_team_random"}
-    for b in sorted(set(team) & set(dcg)):
-        ratio = team_cost_ratio(dcg[b], team[b])
-        out[f"dcg_team_per_collector_within_2x_at_{b}"] = {"value": ratio, "target": TARGET_TEAM_PER_COLLECTOR,
-                                                          "met": ratio <= TARGET_TEAM_PER_COLLECTOR}
-    t43 = result.get("table43")
-    if t43 and t43["episodes"] == 10_000 and tuple(t43["navigators"]) == TABLE43_NAVIGATORS:
-        out["table43_lt_5s"] = {"value": t43["run_s"], "target": TARGET_TABLE43_S,
-                                "met": t43["run_s"] < TARGET_TABLE43_S}
-    return out
-
-
-def team_cost_ratio(dcg_rate: float, team_rate: float, collectors: int = TEAM_COLLECTORS) -> float:
-    """The team step's cost per collector over the one-collector step's: ``(dcg_rate / team_rate) / collectors``
-    (at most 2 is the issue-29 target)."""
-    return dcg_rate / team_rate / collectors
-
-
-def markdown(result: dict) -> str:
-    lines = [f"`{result['command']}`", ""] if result.get("command") else []
-    lines += ["| implementation | batch | T | env-steps/s | vs NumPy | compile (s) |",
-             "|---|---:|---:|---:|---:|---:|"]
-    for r in result["rows"]:
-        lines.append(f"| {r['impl']} | {r['batch']} | {r['steps']} | {r['steps_per_s']:,.0f} | "
-                     f"{r['vs_numpy']:.1f}x | {r['compile_s']:.2f} |")
-    lines.append(f"| numpy_safe_reward | - | - | - | - | {result['numpy_safe_reward']} |")
-    t43 = result.get("table43")
-    if t43:
-        lines += ["", f"Table 4.3 ({len(t43['navigators'])} navigators x {t43['episodes']} episodes, "
-                  "`evaluate_heuristic`):", "",
-                  "| navigator | compile (s) | run after compile (s) | env-steps |", "|---|---:|---:|---:|"]
-        for name, p in t43["navigators"].items():
-            lines.append(f"| {name} | {p['compile_s']:.2f} | {p['run_s']:.3f} | {p['episode_steps']:,} |")
-        lines.append(f"| **total** | {t43['compile_s']:.2f} | {t43['run_s']:.3f} | |")
-    if result["targets"]:
-        lines += ["", "Targets:", ""]
-        for name, t in result["targets"].items():
-            lines.append(f"- {name}: {t['value']:,.3f} (target {t['target']:,}) -> "
-                         f"{'met' if t['met'] else 'NOT met'}")
-    m = result["machine"]
-    load = (f"; load average {m['loadavg_1min_start']:.1f} at the start, {m['loadavg_1min_end']:.1f} at the end"
-            if "loadavg_1min_start" in m else "")
-    lines += ["", f"jax {m['jax']} on {m['backend']} ({m['cpu_count']} CPUs), {m['platform']}{load}"]
-    return "\n".join(lines)
 
 
 def parse_args(argv=None):

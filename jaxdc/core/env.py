@@ -162,6 +162,22 @@ class Environment(Generic[S, P]):
     def step_env(self, key: jax.Array, state: S, action: Any, params: P) -> Transition:
         raise NotImplementedError
 
+    # -- the step's random numbers, drawn apart (optional; jaxdc.core.batched) -----------------
+    def step_noise(self, key: jax.Array, batch: int | None, params: P) -> Any:
+        """The random numbers one ``step_env`` consumes, for one environment (``batch=None``) or drawn for
+        ``batch`` environments at once from one key (leading axis ``batch``).
+
+        The base class draws keys (``key`` itself, or ``split(key, batch)``), which :meth:`step_with_noise`
+        hands to ``step_env``. An environment whose step needs only a few numbers writes both hooks, so
+        that :func:`jaxdc.core.batched.step_batched` draws them for the whole batch in one call; then
+        ``step_env(key, ...)`` must equal ``step_with_noise(step_noise(key, None, params), ...)``.
+        """
+        return key if batch is None else jax.random.split(key, batch)
+
+    def step_with_noise(self, noise: Any, state: S, action: Any, params: P) -> Transition:
+        """``step_env`` given the numbers of :meth:`step_noise` (one environment's)."""
+        return self.step_env(noise, state, action, params)
+
     def observe(self, state: S, params: P) -> jax.Array:
         raise NotImplementedError
 
@@ -327,20 +343,29 @@ def reset_where(env: Environment, done: jax.Array, key: jax.Array, params: Any, 
             out = jax.vmap(lambda d, k, p, c: tree_select(d, env.reset_env(k, p), c), in_axes=(0, 0, axes, 0))(
                 done, key, params, current)
         else:
-            chunk = min(int(env.reset_chunk or reset_chunk_size(b)), b)
-            chunks = -(-b // chunk)
-            where = jnp.nonzero(done, size=chunks * chunk, fill_value=b)[0]  # finished first; b: no one
-
-            def fill(i, cur):
-                ids = jax.lax.dynamic_slice_in_dim(where, i * chunk, chunk)
-                fresh = jax.vmap(env.reset_env, in_axes=(0, None))(key[jnp.minimum(ids, b - 1)], params)
-                return jax.tree_util.tree_map(lambda a, f: a.at[ids].set(f, mode="drop"), cur, fresh)
-
-            finished = jnp.sum(done, dtype=jnp.int32)
-            out = jax.lax.fori_loop(0, (finished + chunk - 1) // chunk, fill, current)
+            out = reset_finished(env, done, lambda i, ids: key[jnp.minimum(ids, b - 1)], params, current)
         return out, jax.tree_util.tree_map(lambda _: True, out)
 
     return reset(done, key, params, obs, state)
+
+
+def reset_finished(env: Environment, done: jax.Array, chunk_keys: Any, params: Any, current: Any) -> Any:
+    """The batch ``current`` (``(obs, state)``, leading axis ``B``) with a fresh ``env.reset_env`` state at every
+    environment where ``done``: ``env.reset_chunk`` (or :func:`reset_chunk_size`) finished environments at a time,
+    in a loop that runs ``ceil(finished / chunk)`` times. ``chunk_keys(i, ids)`` gives the keys of pass ``i``, whose
+    environments are ``ids`` (``B`` for an unused slot). ``params`` are shared by the batch."""
+    b = done.shape[0]
+    chunk = min(int(env.reset_chunk or reset_chunk_size(b)), b)
+    chunks = -(-b // chunk)
+    where = jnp.nonzero(done, size=chunks * chunk, fill_value=b)[0]  # finished first; b: no one
+
+    def fill(i, cur):
+        ids = jax.lax.dynamic_slice_in_dim(where, i * chunk, chunk)
+        fresh = jax.vmap(env.reset_env, in_axes=(0, None))(chunk_keys(i, ids), params)
+        return jax.tree_util.tree_map(lambda a, f: a.at[ids].set(f, mode="drop"), cur, fresh)
+
+    finished = jnp.sum(done, dtype=jnp.int32)
+    return jax.lax.fori_loop(0, (finished + chunk - 1) // chunk, fill, current)
 
 
 def tree_select(pred: Any, on_true: Any, on_false: Any) -> Any:

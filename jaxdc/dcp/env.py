@@ -290,12 +290,21 @@ class DCP(Environment[EnvState, EnvParams]):
 
     def step_env(self, key: jax.Array, state: EnvState, action: Any, params: EnvParams) -> Transition:
         """One transition of section 4.3, without auto-reset."""
+        return self.step_with_noise(self.step_noise(key, None, params), state, action, params)
+
+    def step_noise(self, key: jax.Array, batch: int | None, params: EnvParams) -> jax.Array:
+        """The step's one random number: the uniform the risk of the cell entered is compared with (per
+        environment, or ``[batch]`` from one key: :func:`jaxdc.core.batched.step_batched`)."""
+        return jax.random.uniform(key, () if batch is None else (batch,))
+
+    def step_with_noise(self, noise: jax.Array, state: EnvState, action: Any, params: EnvParams) -> Transition:
+        """:meth:`step_env` given its uniform ``noise``: the agent is disabled when ``noise`` is below the risk."""
         n = self.grid_size
         action, invalid = grid.clip_action(action)
         pos = grid.move(state.pos, action, n)
         reward = state.items[pos[0], pos[1]]
         items = state.items.at[pos[0], pos[1]].set(0.0)
-        hit = jax.random.uniform(key) < self.risk_of(state, params)[pos[0], pos[1]]
+        hit = noise < self.risk_of(state, params)[pos[0], pos[1]]
         in_base = jnp.all(pos == 0)
         energy, out_of_energy = step_energy(state.energy, self.max_energy_of(state, params), in_base)
         cleared = jnp.all(items <= 0)

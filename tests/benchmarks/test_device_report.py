@@ -36,7 +36,8 @@ def test_unwritable_out_dir_is_refused(capsys, tmp_path):
 def test_rows_past_the_budget_are_listed_as_skipped(tmp_path, capsys):
     result = device_report.main(["--small", "--budget-s", "0", "--out-dir", str(tmp_path)])
     assert result["rows"] == []
-    assert result["skipped"] == ["jax_random B=64", "jax_dcg_random B=64", "enn a2c envs=8", "enn ppo envs=8"]
+    assert result["skipped"] == ["jax_random B=64", "jax_batched B=64", "jax_dcg_random B=64", "jax_dcg_batched B=64",
+                                 "enn a2c envs=8", "enn ppo envs=8"]
     assert "Skipped (past the time budget)" in (tmp_path / "device_report.md").read_text()
 
 
@@ -49,11 +50,12 @@ def test_small_run_writes_one_table(tmp_path, capsys):
     stored = json.loads((tmp_path / "device_report.json").read_text())
     assert printed["rows"] == stored["rows"] == json.loads(json.dumps(result["rows"]))
     assert "provenance" in stored
-    env, train = stored["rows"]
+    env, batched, train = stored["rows"]
     assert (env["kind"], env["impl"], env["batch"], env["env_steps"]) == ("env", "jax_random", 16, 16 * 4)
+    assert (batched["impl"], batched["batch"], batched["env_steps"]) == ("jax_batched", 16, 16 * 4)
     assert (train["kind"], train["impl"], train["num_envs"]) == ("train", "jaxdc linear (a2c)", 8)
     assert train["env_steps"] == 8 * 32 * 2  # --small: two updates of 8 environments x t_max 32 per call
-    for row in (env, train):
+    for row in (env, batched, train):
         assert row["steps_per_s"] > 0 and row["compile_s"] >= 0 and row["seconds"] > 0
     assert abs(train["s_per_1M"] * train["steps_per_s"] - 1e6) < 1e-3
     md = (tmp_path / "device_report.md").read_text()

@@ -116,9 +116,10 @@ def test_benchmark_main_quick(tmp_path, capsys):
     assert json.loads(out) == json.loads(json.dumps(result))  # exactly one JSON object on stdout
     impls = [(r["impl"], r["batch"]) for r in result["rows"]]
     slots = "jax_random [reset_slots=B/4]"
-    assert impls == [("jax_random", 1), (slots, 1), ("jax_random", 4), (slots, 4), ("jax_safe_reward", 1),
-                     ("jax_dcg_random", 1), ("jax_dcg_team_random", 1),
-                     ("jax_handbatched", 1), ("numpy_batched", 1), ("numpy_loop", 1)]
+    assert impls == [("jax_random", 1), (slots, 1), ("jax_batched", 1), ("jax_random", 4), (slots, 4),
+                     ("jax_batched", 4), ("jax_safe_reward", 1),
+                     ("jax_dcg_random", 1), ("jax_dcg_batched", 1), ("jax_dcg_team_random", 1),
+                     ("jax_dcg_team_batched", 1), ("jax_handbatched", 1), ("numpy_batched", 1), ("numpy_loop", 1)]
     for r in result["rows"]:
         assert r["steps_per_s"] > 0 and r["env_steps"] == r["batch"] * r["steps"]
         assert set(r) >= {"impl", "batch", "steps", "seconds", "compile_s", "steps_per_s", "vs_numpy"}
@@ -132,7 +133,8 @@ def test_benchmark_main_quick(tmp_path, capsys):
     # The Table 4.3 and target sections, on a synthetic result (compiling them costs ~20 s).
     fake = dict(result)
     fake["rows"] = result["rows"] + [dict(r, batch=4096, steps_per_s=v) for r, v in
-                                     ((result["rows"][0], 3.0), (result["rows"][-3], 4.0), (result["rows"][-2], 2.0))]
+                                     ((result["rows"][0], 3.0), (result["rows"][-3], 4.0), (result["rows"][-2], 2.0),
+                                      (result["rows"][2], 2.2))]
     fake["table43"] = {"episodes": 10_000, "compile_s": 4.0, "run_s": 2.0,
                        "navigators": {n: {"compile_s": 1.0, "run_s": 0.5, "episode_steps": 10}
                                       for n in env_throughput.TABLE43_NAVIGATORS}}
@@ -140,6 +142,10 @@ def test_benchmark_main_quick(tmp_path, capsys):
     assert fake["targets"]["table43_lt_5s"]["met"] and "random_4096_ge_5M" in fake["targets"]
     assert fake["targets"]["random_4096_share_of_handbatched"]["value"] == 0.75
     assert fake["targets"]["random_4096_over_numpy_batched"] == {"value": 1.5, "target": 1.0, "met": True}
+    assert fake["rows"][-1]["impl"] == "jax_batched"  # issue 30: >= 1.2x numpy_batched (2.2 / 2.0 = 1.1: not met)
+    assert fake["targets"]["batched_4096_over_numpy_batched"]["target"] == 1.2
+    assert not fake["targets"]["batched_4096_over_numpy_batched"]["met"]
+    assert fake["targets"]["batched_4096_share_of_handbatched"]["value"] == pytest.approx(0.55)
     md = env_throughput.markdown(fake)
     assert "| **total** | 4.00 | 2.000 |" in md and "table43_lt_5s" in md
 
@@ -256,8 +262,10 @@ def test_the_baselines_play_the_library_rules():
 
     env, params = env_throughput.make_env("dcp")
     lib = float(env_throughput.make_rollout(env, params, 500, 400, "random")(jax.random.PRNGKey(3))[2]) / 200_000
+    batched = float(env_throughput.make_rollout(env, params, 500, 400, "random", batched=True)(
+        jax.random.PRNGKey(7))[2]) / 200_000
     hand = handbatched_dcp.make_rollout(grid.as_risk_map("high", 8), (8.0, 16.0), 200, 30, 500, 400)
-    rates = {"jax_handbatched": float(hand(jax.random.PRNGKey(4))[1]) / 200_000,
+    rates = {"jax_batched": batched, "jax_handbatched": float(hand(jax.random.PRNGKey(4))[1]) / 200_000,
              "numpy_batched": numpy_dcp.batched_rollout(numpy_dcp.BatchedNumpyDCP(500), np.random.default_rng(5),
                                                         400) / 200_000,
              "numpy_loop": numpy_dcp.plain_loop(np.random.default_rng(6), 200_000) / 200_000}
