@@ -17,7 +17,7 @@ from jaxdc.cli import train_dcg as cli
 from jaxdc.cli.eval_dcg_energies import network_label
 from jaxdc.core.tree_check import digest
 from jaxdc.dcg import learned as learned_lib
-from jaxdc.training import dcg, presets
+from jaxdc.training import dcg, presets, ship
 from tests.support.cli_checks import refused, settle, tiny_run
 
 # 3x3 grid, 3 items, the restricted chaser, VNN (no history planes); one update of 16 envs x 8 steps.
@@ -121,6 +121,19 @@ def test_the_masked_general_collector_records_its_recipe_and_plays_under_its_mas
     assert learned.mask == "reach_base_or_item" and "under the mask reach_base_or_item" in learned.describe()
     assert learned.metadata["init_sha256"] == digest(learned_lib.shipped("omn_conn_general_tilt").params)
     assert learned.metadata["algorithm"] == dataclasses.asdict(settings.config)
+
+
+def test_the_harder_tilted_collector_records_its_recipe_seed_and_start():
+    """omn_conn_general_tilt3: omn_conn_general_masked trained on with energy_tilt 3 under its mask, from the shipped
+    file; the preset fixes the seed the shipped file was trained with (train.ship's command uses it)."""
+    settings, _ = settle(cli, "dcg", ["--config", "omn_conn_general_tilt3"])
+    assert settings.init_from == "omn_conn_general_masked" and settings.mask == "reach_base_or_item"
+    assert settings.energy_tilt == 3.0 and settings.config.total_steps == 8_000_000 and settings.config.lr == 1e-4
+    learned = learned_lib.shipped("omn_conn_general_tilt3")
+    assert learned.mask == "reach_base_or_item" and learned.metadata["seed"] == 6
+    assert learned.metadata["init_sha256"] == digest(learned_lib.shipped("omn_conn_general_masked").params)
+    assert learned.metadata["algorithm"] == dataclasses.asdict(settings.config)
+    assert "--seed 6" in " ".join(ship.train_command("omn_conn_general_tilt3", 0, 0, "runs"))
 
 
 @pytest.mark.parametrize("argv, match", [
