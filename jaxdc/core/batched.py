@@ -38,9 +38,10 @@ def step_batched(env: Environment, key: jax.Array, state: Any, action: jax.Array
     env.check_action(action, batch_dims=1)
     b = action.shape[0]
     k_step, k_reset = jax.random.split(key)
-    noise = env.step_noise(k_step, b, params)
+    step_noise, step_with_noise = noise_hooks(env)
+    noise = step_noise(k_step, b, params)
     obs_st, state_st, reward, terminated, truncated, info = jax.vmap(
-        env.step_with_noise, in_axes=(0, 0, 0, None))(noise, state, action, params)
+        step_with_noise, in_axes=(0, 0, 0, None))(noise, state, action, params)
     done = terminated | truncated
     obs, state = reset_finished(
         env, done, lambda i, ids: jax.random.split(jax.random.fold_in(k_reset, i), ids.shape[0]), params,
@@ -50,9 +51,21 @@ def step_batched(env: Environment, key: jax.Array, state: Any, action: jax.Array
     return obs, state, reward, terminated, truncated, info
 
 
+def noise_hooks(env: Environment) -> tuple[Any, Any]:
+    """``(step_noise, step_with_noise)`` of ``env``, or the base class's (keys handed to ``step_env``) where a
+    subclass overrides ``step_env`` below the class that wrote the hooks: those hooks would skip the override."""
+    def owner(name: str) -> type:
+        return next(c for c in type(env).__mro__ if name in vars(c))
+
+    step_cls, hooks_cls = owner("step_env"), owner("step_with_noise")
+    if step_cls is not hooks_cls and issubclass(step_cls, hooks_cls):
+        return (Environment.step_noise.__get__(env), Environment.step_with_noise.__get__(env))
+    return env.step_noise, env.step_with_noise
+
+
 def reset_batched(env: Environment, key: jax.Array, batch: int, params: Any) -> tuple[jax.Array, Any]:
     """``batch`` initial states ``(obs, state)`` from one key (``vmap(env.reset)`` over ``split(key, batch)``)."""
     return jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, batch), params)
 
 
-__all__ = ["reset_batched", "step_batched"]
+__all__ = ["noise_hooks", "reset_batched", "step_batched"]

@@ -145,3 +145,19 @@ def test_step_batched_refuses_params_of_another_grid_size():
     other = DCP(grid_size=6).make_params()
     with pytest.raises(ValueError, match="grid size"):
         step_batched(env, jax.random.key(1), state, jnp.zeros(4, jnp.int32), other)
+
+
+class _Bonus(DCP):
+    """A DCP whose step pays one more unit: it overrides ``step_env`` below the class that wrote the noise hooks."""
+
+    def step_env(self, key, state, action, params):
+        obs, new_state, reward, terminated, truncated, info = super().step_env(key, state, action, params)
+        return obs, new_state, reward + 1.0, terminated, truncated, info
+
+
+def test_an_override_of_step_env_below_the_noise_hooks_is_stepped():
+    env = _Bonus(grid_size=4, total_reward=3)
+    params = env.make_params("low", (5.0, 10.0), max_steps=20)
+    _, state = reset_batched(env, jax.random.key(0), 8, params)
+    reward = step_batched(env, jax.random.key(1), state, jnp.zeros(8, jnp.int32), params)[2]
+    assert np.all(np.asarray(reward) >= 1.0)  # the override's unit, on every environment
