@@ -106,17 +106,17 @@ def make_env(game: str = "dcp"):
     return env, env.make_params("high", (8.0, 16.0), max_steps=200)
 
 
-def _time_best(fn, repeats: int) -> tuple[float, float]:
-    """``(first_call_s, best_s)``: the first call compiles; best of ``repeats`` afterwards."""
+def _seconds(fn) -> float:
+    """The wall time of one ``fn()``, its result ready."""
     t0 = time.perf_counter()
     jax.block_until_ready(fn())
-    first = time.perf_counter() - t0
-    best = math.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn())
-        best = min(best, time.perf_counter() - t0)
-    return first, best
+    return time.perf_counter() - t0
+
+
+def _time_best(fn, repeats: int) -> tuple[float, float]:
+    """``(first_call_s, best_s)``: the first call compiles; best of ``repeats`` afterwards."""
+    first = _seconds(fn)
+    return first, min((_seconds(fn) for _ in range(repeats)), default=math.inf)
 
 
 def make_rollout(env, params, batch: int, steps: int, policy: str, reset_slots: int | None = None,
@@ -191,25 +191,18 @@ def _row(impl: str, batch: int, steps: int, first: float, best: float) -> dict:
 
 def bench_jax(policy: str, batch: int, steps: int, repeats: int, seed: int = 0, reset_slots=None,
               game: str = "dcp", batched: bool = False) -> dict:
-    impl, call = _jax_case(policy, batch, steps, seed, reset_slots, game, batched)
-    return _row(impl, batch, steps, *_time_best(call, repeats))
+    case = {"policy": policy, "seed": seed, "reset_slots": reset_slots, "game": game, "batched": batched}
+    return bench_jax_side_by_side([case], batch, steps, repeats)[0]
 
 
 def bench_jax_side_by_side(cases: list[dict], batch: int, steps: int, repeats: int) -> list[dict]:
     """The rows of ``cases`` (``_jax_case`` keywords) timed in turn, repeat by repeat (best of ``repeats`` each),
     so that a slow spell of this noisy machine falls on all of them alike and their ratios stay fair."""
     calls = [_jax_case(batch=batch, steps=steps, **case) for case in cases]
-    first = []
-    for _, call in calls:
-        t0 = time.perf_counter()
-        jax.block_until_ready(call())
-        first.append(time.perf_counter() - t0)
+    first = [_seconds(call) for _, call in calls]
     best = [math.inf] * len(calls)
     for _ in range(repeats):
-        for i, (_, call) in enumerate(calls):
-            t0 = time.perf_counter()
-            jax.block_until_ready(call())
-            best[i] = min(best[i], time.perf_counter() - t0)
+        best = [min(b, _seconds(call)) for b, (_, call) in zip(best, calls)]
     return [_row(impl, batch, steps, f, b) for (impl, _), f, b in zip(calls, first, best)]
 
 

@@ -6,8 +6,9 @@ setting would write them: the batch is the leading axis of flat arrays (a cell i
 no episode totals), one key per step for the whole batch, and the observation ``[B, N, N, 2]`` built on
 every step, as the library's step does. Fresh initial states are drawn only for the environments that
 finished, a chunk at a time (the chunk of :func:`jaxdc.core.env.reset_chunk_size`), as the NumPy batch and
-the library do; drawing a fresh state for every environment on every step was measured 2.2x slower (it was
-this yardstick until issue 30). Its random streams differ from the library's, so only the distributions
+the library do. Until issue 30 this yardstick drew a fresh state for every environment on every step: 2.84M
+env-steps/s at B = 4,096 then, 5.69M-5.89M now (``python benchmarks/env_throughput.py --batch-sizes 4096
+--no-table43``, 2026-12-07 and 12-08). Its random streams differ from the library's, so only the distributions
 agree; it is a speed yardstick, not part of the library.
 """
 

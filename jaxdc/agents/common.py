@@ -30,6 +30,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
+from jaxdc.core.batched import reset_batched
 from jaxdc.core.env import Environment
 from jaxdc.core.validate import INT32_MAX, check_float, check_positive_int
 
@@ -286,7 +287,7 @@ def first_batch(key: jax.Array, env: Any, env_params: Any, net: Network, heurist
     With ``agents`` (a team environment) the observations are ``[num_envs, agents, ...]`` and the network is
     initialised on their ``num_envs * agents`` rows."""
     k_net, k_env, k_train = jax.random.split(key, 3)
-    obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(k_env, num_envs), env_params)
+    obs, env_state = reset_batched(env, k_env, num_envs, env_params)
     rows = obs if agents is None else obs.reshape((-1,) + obs.shape[2:])
     params = net.init(k_net, rows, heuristics(env_state))
     return params, obs, env_state, k_train

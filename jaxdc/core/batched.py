@@ -23,6 +23,7 @@ from typing import Any
 import jax
 
 from jaxdc.core.env import Environment, Transition, reset_finished
+from jaxdc.core.validate import check_positive_int
 
 
 def step_batched(env: Environment, key: jax.Array, state: Any, action: jax.Array, params: Any) -> Transition:
@@ -37,6 +38,9 @@ def step_batched(env: Environment, key: jax.Array, state: Any, action: jax.Array
     env.check_state(state)
     env.check_action(action, batch_dims=1)
     b = action.shape[0]
+    if b < 1:
+        raise ValueError(f"action must hold one action per environment of a batch of at least 1, got shape "
+                         f"{tuple(action.shape)}")
     k_step, k_reset = jax.random.split(key)
     step_noise, step_with_noise = noise_hooks(env)
     noise = step_noise(k_step, b, params)
@@ -64,7 +68,9 @@ def noise_hooks(env: Environment) -> tuple[Any, Any]:
 
 
 def reset_batched(env: Environment, key: jax.Array, batch: int, params: Any) -> tuple[jax.Array, Any]:
-    """``batch`` initial states ``(obs, state)`` from one key (``vmap(env.reset)`` over ``split(key, batch)``)."""
+    """``batch`` initial states ``(obs, state)`` from one key (``vmap(env.reset)`` over ``split(key, batch)``);
+    ``batch`` must be an integer >= 1."""
+    batch = check_positive_int("batch", batch)
     return jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, batch), params)
 
 

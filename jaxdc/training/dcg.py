@@ -33,6 +33,7 @@ import jax.numpy as jnp
 from jaxdc import pretrained
 from jaxdc.agents import a2c
 from jaxdc.agents.centralised import actor_params
+from jaxdc.core.batched import reset_batched
 from jaxdc.core.energy import check_energy_range
 from jaxdc.core.env import step_batch
 from jaxdc.core.masks import MASKS, make_mask
@@ -150,7 +151,7 @@ def opponent_accuracy(env: DCG | DCGTeam, env_params: Any, net: Any, params: Any
     of Eq. 5.1.
     """
     k_reset, k_run = jax.random.split(key)
-    obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(k_reset, num_envs), env_params)
+    obs, state = reset_batched(env, k_reset, num_envs, env_params)
     k = env.collectors if isinstance(env, DCGTeam) else 1
     team = isinstance(env, DCGTeam)
 

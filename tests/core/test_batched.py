@@ -161,3 +161,14 @@ def test_an_override_of_step_env_below_the_noise_hooks_is_stepped():
     _, state = reset_batched(env, jax.random.key(0), 8, params)
     reward = step_batched(env, jax.random.key(1), state, jnp.zeros(8, jnp.int32), params)[2]
     assert np.all(np.asarray(reward) >= 1.0)  # the override's unit, on every environment
+
+
+def test_an_empty_or_non_integer_batch_is_refused_by_name():
+    env, params = _dcp()
+    _, state = reset_batched(env, jax.random.key(0), 2, params)
+    empty = jax.tree_util.tree_map(lambda x: x[:0], state)
+    with pytest.raises(ValueError, match="action"):
+        step_batched(env, jax.random.key(1), empty, jnp.zeros(0, jnp.int32), params)
+    for bad in (0, -3, 2.5, "4"):
+        with pytest.raises((ValueError, TypeError), match="batch"):
+            reset_batched(env, jax.random.key(0), bad, params)

@@ -43,6 +43,7 @@ import optax
 
 from jaxdc.agents.a2c import aux_cross_entropy
 from jaxdc.core import grid
+from jaxdc.core.batched import reset_batched
 from jaxdc.core.env import step_batch
 from jaxdc.dcg.env import DCG, EnvParams
 from jaxdc.dcg.opponents import OpponentState, in_fog
@@ -66,7 +67,7 @@ class Record(NamedTuple):
 def record(env: DCG, params: EnvParams, policy, key, num_envs: int = 64, steps: int = 200) -> Record:
     """Play ``policy(key, obs, state) -> action`` (one game; vmapped here) in ``num_envs`` games for ``steps`` steps."""
     k_reset, k_run = jax.random.split(key)
-    obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(k_reset, num_envs), params)
+    obs, state = reset_batched(env, k_reset, num_envs, params)
 
     def step(carry, k):
         obs, state = carry
