@@ -58,14 +58,23 @@ class ReportSettings:
 
 
 def _notes(value: str | None, default: str, flag: str) -> str | None:
-    """A notes file: ``default`` if it exists when ``value`` is ``None``, none for ``'none'``; ``ValueError`` for a
-    file that does not exist."""
+    """A notes file: ``default`` if it exists when ``value`` is ``None``, none for ``'none'``; ``ValueError`` naming
+    ``flag`` for a file that does not exist, a folder, or a file that is not UTF-8 text."""
     if value is None:
         return default if os.path.isfile(default) else None
     if value.lower() == "none":
         return None
+    if os.path.isdir(value):
+        raise ValueError(f"{flag} {value!r} is a folder, not a notes file (pass {flag} none for no notes)")
     if not os.path.isfile(value):
         raise ValueError(f"{flag} {value!r}: no such file (pass {flag} none for no notes)")
+    try:
+        with open(value, encoding="utf-8") as f:
+            f.read()
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{flag} {value!r}: not a UTF-8 text file (byte {e.start} cannot be decoded)") from None
+    except OSError as e:
+        raise ValueError(f"{flag} {value!r}: cannot read it ({e.strerror or e})") from None
     return value
 
 

@@ -11,6 +11,8 @@ import glob
 import os
 import re
 
+from jaxdc.report.stored import read_text
+
 #: The title of the DCG section (its hand-written notes are appended to it).
 DCG_TITLE = "DCG (chapter 5): Figs. 5.6-5.19"
 #: Markdown tables written by the other commands, copied into the page: (section title, glob under results/,
@@ -44,8 +46,7 @@ def copied_sections(results_dir: str, out_dir: str, notes: dict | None = None) -
         if not files:
             parts += [f"No results yet: run `{command}`, then `python -m eval.report`.", ""]
         for path in files:
-            with open(path) as f:
-                text = f.read().strip()
+            text = read_text(path).strip()
             if "`python" not in text:  # a table written without its command: name the script that writes it
                 text = f"`python benchmarks/{os.path.basename(path)[:-3]}.py`\n\n{text}"
             parts += [f"<!-- from {os.path.relpath(path, results_dir)} -->", _relink(text, path, out_dir), ""]

@@ -7,7 +7,7 @@ import os
 from jaxdc.report.copied import DCG_TITLE, copied_sections
 from jaxdc.report.dcp_tables import dcp_table
 from jaxdc.report.scorecard import scorecard
-from jaxdc.report.stored import read_json, reading, table_files
+from jaxdc.report.stored import dcp_table_file, reading, table_files
 
 HEADER = """# Results: the thesis against jaxdc
 
@@ -29,25 +29,40 @@ def build_page(results_dir: str, notes_path: str | None, out_dir: str = "docs",
     """The page: header, the scorecard (:mod:`jaxdc.report.scorecard`), the DCP tables of ``results_dir/dcp``, the
     notes at ``notes_path`` (``None``: none), the copied sections, the DCG one ending with the notes at
     ``dcg_notes_path``; links are relative to ``out_dir``. ``FileNotFoundError`` when there is no DCP table or the
-    notes file is missing; ``ValueError`` naming the file when a table file is damaged."""
+    notes file is missing; ``ValueError`` naming the file (and the key) when a table file is damaged, and naming
+    the flag when a notes file is a folder or not UTF-8 text."""
     files = table_files(results_dir)
     if not files:
         raise FileNotFoundError(
             f"no DCP tables in {results_dir}/dcp: run e.g. `python -m eval.dcp --table 4.3` first"
         )
-    for flag, path in (("--notes", notes_path), ("--dcg-notes", dcg_notes_path)):
-        if path and not os.path.isfile(path):
-            raise FileNotFoundError(f"{flag} {path!r}: no such file")
+    notes = {flag: _notes_text(flag, path) for flag, path in (("--notes", notes_path),
+                                                               ("--dcg-notes", dcg_notes_path))}
     parts = [HEADER, scorecard(results_dir), "## DCP (chapter 4): Tables 4.1 and 4.3-4.10, navigators and learners", ""]
     for path in files:
+        table = dcp_table_file(path)
         with reading(path, "python -m eval.dcp --table"):
-            parts += [dcp_table(read_json(path)), ""]
-    if notes_path:
-        with open(notes_path) as f:
-            parts += [f.read(), ""]
-    dcg_notes = {}
-    if dcg_notes_path:
-        with open(dcg_notes_path) as f:
-            dcg_notes[DCG_TITLE] = f.read()
+            parts += [dcp_table(table), ""]
+    if notes["--notes"] is not None:
+        parts += [notes["--notes"], ""]
+    dcg_notes = {} if notes["--dcg-notes"] is None else {DCG_TITLE: notes["--dcg-notes"]}
     parts += copied_sections(results_dir, out_dir, dcg_notes)
     return "\n".join(parts)
+
+
+def _notes_text(flag: str, path: str | None) -> str | None:
+    """The text of the notes file ``path`` given as ``flag`` (``None``: none); ``FileNotFoundError`` when there is
+    no such file, ``ValueError`` naming the flag when it is a folder or not UTF-8 text."""
+    if not path:
+        return None
+    if os.path.isdir(path):
+        raise ValueError(f"{flag} {path!r} is a folder, not a notes file")
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"{flag} {path!r}: no such file")
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.read()
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{flag} {path!r}: not a UTF-8 text file (byte {e.start} cannot be decoded)") from None
+    except OSError as e:
+        raise ValueError(f"{flag} {path!r}: cannot read it ({e.strerror or e})") from None

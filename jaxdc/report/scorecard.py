@@ -24,9 +24,11 @@ import re
 
 from jaxdc.core.stats import format_number
 from jaxdc.dcg.analysis.claims import STRONG_MARK
-from jaxdc.drp.analysis.claims import judge_claims, rows_by_key
+from jaxdc.dcg.analysis.records import check_bound, check_figure
+from jaxdc.drp.analysis.cache import check_experiment, check_gaps
+from jaxdc.drp.analysis.claims import judge_claims
 from jaxdc.report.dcp_tables import delta_se
-from jaxdc.report.stored import read_json, reading, require_fields, table_files
+from jaxdc.report.stored import dcp_table_file, fields, read_json, read_text, reading, require_fields, table_files
 
 #: ``|Δ/SE|`` up to this is agreement within sampling noise (the thesis' own reruns moved by about 3 SE).
 REPRODUCED_SE = 3.0
@@ -58,10 +60,9 @@ def drp_experiments(results_dir: str) -> dict:
     best = {}
     for path in sorted(glob.glob(os.path.join(results_dir, "drp", "experiment_*.json"))):
         rec = require_fields(read_json(path), path, "python -m eval.drp figure", ("config", "rows"))
-        with reading(path, "python -m eval.drp figure"):
-            cfg = rec["config"]
-            size = cfg["graphs"] * cfg["nodes"]
-            rows_by_key(rec)
+        check_experiment(rec, path, "rerun python -m eval.drp figure to write it again")
+        cfg = rec["config"]
+        size = cfg["graphs"] * cfg["nodes"]
         if cfg["rewards"] not in best or size > best[cfg["rewards"]][0]:
             best[cfg["rewards"]] = (size, rec)
     return {k: v[1] for k, v in best.items()}
@@ -95,8 +96,9 @@ def _row_delta(payload, name, thesis_name=None):
 def dcp_rows(results_dir: str) -> list[list[str]]:
     rows = []
     for path in table_files(results_dir):
+        p = dcp_table_file(path)
         with reading(path, "python -m eval.dcp --table"):
-            rows += _dcp_table_rows(read_json(path))
+            rows += _dcp_table_rows(p)
     if not rows:
         rows.append(["DCP Tables 4.1, 4.3-4.10", "", "no results: run `python -m eval.dcp --table 4.3`", "—", "—",
                      ""])
@@ -120,8 +122,11 @@ def _dcp_table_rows(p: dict) -> list[list[str]]:
         worst, rel = max(got, key=lambda g: abs(g[0]))
         label = "tour heuristics" if not learned else "navigators"
         rel_text = "" if rel is None else f", {rel:+.1%}"
+        # a row whose Δ/SE is undefined (a null mean, a zero SD) is counted, not silently left out
+        undefined = "" if len(got) == len(navs) else f"; {len(navs) - len(got)} more without a Δ/SE"
         rows.append([f"DCP Table {p['table']}", f"{len(ds)} {label}, reward",
-                     f"{within} of {len(ds)} within {REPRODUCED_SE:g} SE (largest {worst:+.1f} SE{rel_text})", "—",
+                     f"{within} of {len(ds)} within {REPRODUCED_SE:g} SE (largest {worst:+.1f} SE{rel_text})"
+                     f"{undefined}", "—",
                      "reproduced" if within == len(ds) else f"{len(ds) - within} of {len(ds)} off", where])
     if learned:
         ours, thesis, d = _row_delta(p, learned)
@@ -140,24 +145,25 @@ def _dcp_table_rows(p: dict) -> list[list[str]]:
 DCG_FIELDS = ("experiment", "figures", "caption", "command", "results", "claims")
 
 
-def dcg_figures(results_dir: str) -> list[dict]:
-    """The stored DCG figure records (``figure_*.json``), in figure order."""
+def dcg_figures(results_dir: str) -> list[tuple[str, dict]]:
+    """The stored DCG figure records (``figure_*.json``) with their paths, in figure order; a damaged one
+    (:func:`jaxdc.dcg.analysis.records.check_figure`, the fields the scorecard reads) is a ``ValueError`` naming the
+    file and the key."""
     recs = []
     for path in glob.glob(os.path.join(results_dir, "dcg", "figure_*.json")):
         rec = require_fields(read_json(path), path, "python -m eval.dcg figure", DCG_FIELDS)
-        with reading(path, "python -m eval.dcg figure"):
-            recs.append((tuple(int(x) for x in rec["figures"][0].split(".")), rec))
-    return [rec for _, rec in sorted(recs, key=lambda kr: kr[0])]
+        check_figure(fields(path, "python -m eval.dcg figure"), rec, full=False)
+        recs.append((tuple(int(x) for x in rec["figures"][0].split(".")), path, rec))
+    return [(path, rec) for _, path, rec in sorted(recs, key=lambda kr: (kr[0], kr[1]))]
 
 
 def _heading(results_dir: str, experiment: str) -> str | None:
     md = os.path.join(results_dir, "dcg", f"figure_{experiment}.md")
     if not os.path.isfile(md):
         return None
-    with open(md) as f:
-        for line in f:
-            if line.startswith("#"):
-                return line.lstrip("#").strip()
+    for line in read_text(md).splitlines():
+        if line.startswith("#"):
+            return line.lstrip("#").strip()
     return None
 
 
@@ -168,7 +174,7 @@ def _agreement(claims) -> tuple[int, int]:
 
 def dcg_rows(results_dir: str) -> list[list[str]]:
     rows = []
-    for rec in dcg_figures(results_dir):
+    for _, rec in dcg_figures(results_dir):
         thesis = [c for c in rec["claims"] if not c["claim"].startswith(STRONG_MARK)
                   and "beyond the thesis" not in c["claim"]]
         strong = [c for c in rec["claims"] if c["claim"].startswith(STRONG_MARK)
@@ -190,17 +196,21 @@ def dcg_rows(results_dir: str) -> list[list[str]]:
 def yardstick_rows(results_dir: str) -> list[list[str]]:
     rows = []
     for path in table_files(results_dir):
-        with reading(path, "python -m eval.dcp --table"):
-            p = read_json(path)
-            if "optimal" in p["ours"]:
+        p = dcp_table_file(path)
+        if "optimal" in p["ours"]:
+            with reading(path, "python -m eval.dcp --table"):
                 rows.append(_optimum_row(p))
-    for rec in dcg_figures(results_dir):
+    for path, rec in dcg_figures(results_dir):
         bound = (rec.get("bounds") or {}).get("all")
         if not bound:
             continue
-        with reading(f"results/dcg/figure_{rec['experiment']}.json", "python -m eval.dcg figure"):
-            rows.append(_bound_row(rec, bound, _heading(results_dir, rec["experiment"])))
-    for rec in dcg_figures(results_dir):
+        check_bound(fields(path, "python -m eval.dcg figure"), bound, "bounds.all")  # the scorecard shows its SE
+        if "all" not in rec["results"]:
+            raise fields(path, "python -m eval.dcg figure").error("results.all", "is missing (bounds.all has a bound)")
+        head = _heading(results_dir, rec["experiment"])
+        with reading(path, "python -m eval.dcg figure"):
+            rows.append(_bound_row(rec, bound, head))
+    for _, rec in dcg_figures(results_dir):
         judged = {}
         for c in rec["claims"]:
             if "beyond the thesis" in c["claim"]:
@@ -212,8 +222,9 @@ def yardstick_rows(results_dir: str) -> list[list[str]]:
             rows.append([f"DCG Figs. {', '.join(rec['figures'])}", text.replace("(beyond the thesis) ", ""), *cells,
                          word, f"`{rec['command']}`"])
     for path in sorted(glob.glob(os.path.join(results_dir, "drp", "gaps_*.json"))):
+        rec = check_gaps(read_json(path), path, "rerun python -m eval.drp gaps to write it again")
         with reading(path, "python -m eval.drp gaps"):
-            rows += _gap_rows(read_json(path))
+            rows += _gap_rows(rec)
     return rows
 
 
@@ -225,12 +236,13 @@ def _optimum_row(p: dict) -> list[str]:
 
     def share(row):
         r = p["ours"][row]["reward"]["mean"]
-        return r, f"{r:.3f} = {r / opt:.1%}"
+        return r, "— (undefined)" if r is None else f"{r:.3f} = {r / opt:.1%}"
 
     cell, met = "—", "—"
     if best:
         r, text = share(best["row"])
-        cell, met = f"{text}: `{best['checkpoint']}`", "goal met" if r / opt >= goal else "goal not met"
+        cell = f"{text}: `{best['checkpoint']}`"
+        met = "—" if r is None else "goal met" if r / opt >= goal else "goal not met"
     title = f"Table {p['table']}: {p['caption']}"
     return [f"DCP Table {p['table']} setting", f"exact optimum {opt:.3f} (value iteration; not in the thesis); goal "
             f"{goal:.0%}", share(learned)[1] if learned else "—", cell, met, f"[§](#{anchor(title)}) `{p['command']}`"]
@@ -240,7 +252,8 @@ def _bound_row(rec: dict, bound: dict, head: str | None) -> list[str]:
     """The best faithful and strong collectors of a DCG experiment as shares of its full-information bound."""
     res, total = rec["results"]["all"], bound["total"]
     def best(strong):
-        got = [(v["reward"]["mean"], k) for k, v in res.items() if k.endswith(" strong") == strong]
+        got = [(v["reward"]["mean"], k) for k, v in res.items()
+               if k.endswith(" strong") == strong and v["reward"]["mean"] is not None]
         return "—" if not got else f"{max(got)[0]:.2f} = {max(got)[0] / total:.1%} ({max(got)[1]})"
     return [f"DCG Figs. {', '.join(rec['figures'])}",
             f"full-information bound {total:.2f} ± {bound['se']:.2f} ({bound['episodes']} games; not in the thesis)",

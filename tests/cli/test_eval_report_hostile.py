@@ -53,7 +53,7 @@ def test_report_out_checked_first(tmp_path, capsys, where, needles):
     ('{"table": "4.8", "ours": {"p": {"reward": {"mean": NaN}}}}', ("table_4.8.json", "NaN")),
     ('{"table": "4.8", "ours": {"p": {"reward": {"mean": Infinity}}}}', ("table_4.8.json", "Infinity")),
     ('{"table": "4.8", ', ("table_4.8.json", "not valid JSON")),
-    ('{"table": "4.8"}', ("table_4.8.json", "not a file written by python -m eval.dcp --table", "caption")),
+    ('{"table": "4.8"}', ("table_4.8.json", "caption is missing", "rerun python -m eval.dcp --table")),
 ])
 def test_report_damaged_table_refused(tmp_path, capsys, text, needles):
     res = _table(tmp_path, text)

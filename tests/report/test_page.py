@@ -155,3 +155,43 @@ def test_committed_page_is_rebuilt_from_the_committed_results():
     with open(os.path.join(docs, "results.md")) as f:
         committed = f.read()
     assert page == committed, "docs/results.md is stale: run `python -m eval.report` and commit the page"
+
+
+# -- hostile input (issue 31) ---------------------------------------------------------------------------------
+def test_a_damaged_table_is_refused_with_one_line_naming_file_and_key(tmp_path, capsys):
+    res = _results_with_one_dcp_table(tmp_path)
+    path = res / "dcp" / "table_4.8.json"
+    rec = json.loads(path.read_text())
+    rec["ours"] = {"safe_reward": {"reward": {"mean": "abc", "sd": 1.0}, "energy": {"mean": 1.0, "sd": 1.0},
+                                   "rpe": {"mean": 0.1, "sd": 0.1}, "episodes": 10}}
+    path.write_text(json.dumps(rec))
+    out = tmp_path / "page.md"
+    assert report.main(["--results", str(res), "--out", str(out), "--notes", "none", "--dcg-notes", "none"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{path}: ours.safe_reward.reward.mean must be a number or null, got 'abc'" in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("flag", ["--notes", "--dcg-notes"])
+def test_notes_that_are_binary_or_a_folder_name_the_flag_and_the_reason(tmp_path, capsys, flag):
+    res = _results_with_one_dcp_table(tmp_path)
+    binary = tmp_path / "notes.md"
+    binary.write_bytes(b"# notes\n\x80\x81\n")
+    other = "--dcg-notes" if flag == "--notes" else "--notes"
+    out = str(tmp_path / "page.md")
+    assert report.main(["--results", str(res), "--out", out, other, "none", flag, str(binary)]) == 2
+    err = capsys.readouterr().err
+    assert f"{flag} '{binary}': not a UTF-8 text file" in err and "codec" not in err
+    assert report.main(["--results", str(res), "--out", out, other, "none", flag, str(tmp_path)]) == 2
+    assert f"{flag} '{tmp_path}' is a folder, not a notes file" in capsys.readouterr().err
+    notes, dcg_notes = (str(binary), None) if flag == "--notes" else (None, str(binary))
+    with pytest.raises(ValueError, match=rf"{flag} .* not a UTF-8 text file"):
+        build_page(str(res), notes, str(tmp_path), dcg_notes)
+
+
+def test_a_copied_markdown_file_that_is_not_text_is_named(tmp_path):
+    res = _results_with_one_dcp_table(tmp_path)
+    (res / "benchmarks").mkdir()
+    (res / "benchmarks" / "env.md").write_bytes(b"\xff\xfe")
+    with pytest.raises(ValueError, match=r"benchmarks/env\.md: not UTF-8 text"):
+        build_page(str(res), None, str(tmp_path))

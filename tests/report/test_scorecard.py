@@ -2,6 +2,7 @@
 DCG claim counts, the exact yardsticks) and a damaged file named."""
 
 import json
+import re
 
 import pytest
 
@@ -22,7 +23,7 @@ def _table(tmp_path, **over):
                           "enn": [13.16, 7.0, 0, 0, 0, 0]},
                "ours": {"safe_reward": _summary(11.56, 5.0), "safe_both": _summary(11.0, 5.0),
                         "enn": _summary(12.88, 7.0), "enn best": _summary(14.80, 7.0)},
-               "learned": {"net": "enn", "row": "enn"},
+               "learned": {"net": "enn", "row": "enn", "source": "enn"},
                "best": {"row": "enn best", "thesis_row": "enn", "checkpoint": "enn_long", "source": "enn_long",
                         "differs": "16M steps", "trained": {}}}
     payload.update(over)
@@ -100,5 +101,77 @@ def test_a_damaged_results_file_is_named(tmp_path):
         scorecard(str(tmp_path))
     (d / "figure_x.json").unlink()
     _table(tmp_path, ours={"enn": {"reward": "many"}})
-    with pytest.raises(ValueError, match=r"table_4.3.json: not a file written by python -m eval.dcp --table"):
+    with pytest.raises(ValueError, match=r"table_4.3.json: ours\.enn\.reward must be a JSON object, got 'many'; "
+                                         r"rerun python -m eval.dcp --table"):
+        scorecard(str(tmp_path))
+
+
+# -- hostile input (issue 31): a damaged stored result is refused naming the file and the key, never dropped -------
+@pytest.mark.parametrize("edit, key", [
+    (lambda p: p["ours"]["safe_reward"]["reward"].update(mean="abc"),
+     "ours.safe_reward.reward.mean must be a number or null, got 'abc'"),
+    (lambda p: p["ours"]["safe_both"].pop("episodes"), "ours.safe_both.episodes is missing"),
+    (lambda p: p["ours"]["safe_reward"].update(episodes=0), "ours.safe_reward.episodes must be at least 1, got 0"),
+    (lambda p: p["thesis"]["enn"].pop(), "thesis.enn must hold 6 values"),
+    (lambda p: p["thesis"]["enn"].__setitem__(0, "13"), r"thesis.enn\[0\] must be a number or null, got '13'"),
+    (lambda p: p["best"].update(row="nope"), "best.row 'nope' is not a row of ours"),
+    (lambda p: p.update(table="4.4"), "table '4.4' is not the table of the file's name"),
+    (lambda p: p["ours"]["enn"]["rpe"].update(sd=-1), "ours.enn.rpe.sd must be at least 0"),
+])
+def test_a_damaged_dcp_table_is_refused_naming_the_file_and_key(tmp_path, edit, key):
+    payload = _table(tmp_path)
+    edit(payload)
+    (tmp_path / "dcp" / "table_4.3.json").write_text(json.dumps(payload))
+    with pytest.raises(ValueError, match=rf"dcp/table_4\.3\.json: {key}"):
+        scorecard(str(tmp_path))
+
+
+def test_an_undefined_navigator_is_counted_not_dropped(tmp_path):
+    payload = _table(tmp_path)
+    payload["ours"]["safe_both"]["reward"]["mean"] = None  # undefined (null) is shown, not refused
+    (tmp_path / "dcp" / "table_4.3.json").write_text(json.dumps(payload))
+    assert "1 of 1 within 3 SE (largest +0.2 SE, +0.1%); 1 more without a Δ/SE" in scorecard(str(tmp_path))
+
+
+@pytest.mark.parametrize("edit, key", [
+    (lambda r: r["results"]["all"]["VNN"].pop("reward"), "results.all.VNN.reward is missing"),
+    (lambda r: r["results"]["all"]["VNN"]["reward"].update(mean="abc"),
+     "results.all.VNN.reward.mean must be a number or null, got 'abc'"),
+    (lambda r: r.update(figures=[]), "figures must name at least one figure"),
+    (lambda r: r["claims"][0].pop("agrees"), r"claims\[0\].agrees is missing"),
+    (lambda r: r["bounds"]["all"].pop("se"), "bounds.all.se is missing"),
+])
+def test_a_damaged_dcg_figure_is_named_by_its_real_path_and_key(tmp_path, edit, key):
+    _figure(tmp_path, [("a (Fig. 5.6)", "yes")], name="standard_5m")
+    path = tmp_path / "dcg" / "figure_standard_5m.json"
+    rec = json.loads(path.read_text())
+    edit(rec)
+    path.write_text(json.dumps(rec))
+    with pytest.raises(ValueError) as e:
+        scorecard(str(tmp_path))
+    assert re.match(rf"{re.escape(str(path))}: {key}", str(e.value)), str(e.value)
+    assert "Error(" not in str(e.value)  # no exception repr
+
+
+def test_damaged_drp_results_are_refused_naming_the_file_and_key(tmp_path):
+    d = tmp_path / "drp"
+    d.mkdir()
+    (d / "experiment_r5_g2_n5_centre_s0.json").write_text(json.dumps(
+        {"config": {"rewards": "5", "graphs": 2, "nodes": 5, "alphas": [0], "base": "centre", "seed": 0},
+         "wall_seconds": 1.0, "rows": [{"clustering": "nc", "alpha": 0, "mean": 1.0, "sd": 0.0}]}))
+    with pytest.raises(ValueError, match=r"experiment_r5_g2_n5_centre_s0\.json: rows\[0\]\.builder is missing"):
+        scorecard(str(tmp_path))
+    (d / "experiment_r5_g2_n5_centre_s0.json").unlink()
+    _table(tmp_path)
+    (d / "gaps_n8_g2.json").write_text(json.dumps(
+        {"config": {"graphs": 2, "nodes": 8, "base": "centre"},
+         "rows": [{"clustering": "nc", "builder": "gi", "mean_ratio": "high", "graphs": 2}]}))
+    with pytest.raises(ValueError, match=r"gaps_n8_g2\.json: rows\[0\]\.mean_ratio must be a number or null"):
+        scorecard(str(tmp_path))
+
+
+def test_a_figure_heading_that_is_not_text_is_named(tmp_path):
+    _figure(tmp_path, [("a (Fig. 5.6)", "yes")])
+    (tmp_path / "dcg" / "figure_standard.md").write_bytes(b"\x80\x81 not text")
+    with pytest.raises(ValueError, match=r"figure_standard\.md: not UTF-8 text"):
         scorecard(str(tmp_path))

@@ -20,7 +20,9 @@ import dataclasses
 import hashlib
 import json
 import os
+from typing import Callable
 
+from jaxdc.core.record_fields import Fields
 from jaxdc.io import atomic_write_json, read_json
 from jaxdc.provenance import provenance
 
@@ -45,16 +47,24 @@ class EvaluationCache:
         digest.update(json.dumps(settings, sort_keys=True, default=list).encode())
         return os.path.join(self.folder, ("bound_" if blob is None else "") + digest.hexdigest()[:24] + ".json")
 
-    def load(self, blob: str | None, settings: dict) -> dict | None:
+    def load(self, blob: str | None, settings: dict,
+             check: Callable[[Fields, dict], object] | None = None) -> dict | None:
         """The stored result of the same file with the same settings (without its provenance), ``None`` if there
-        is none (or no reuse)."""
+        is none (or no reuse).
+
+        ``check(fields, result)`` (e.g. :func:`jaxdc.dcg.analysis.records.check_evaluation`) checks the result's
+        fields; a damaged one is a ``ValueError`` naming the file and the key, and telling to delete it.
+        """
         path = self.path(blob, settings)
         if not self.reuse or not os.path.isfile(path):
             return None
-        stored = read_json(path, "delete it (or pass --no-cache) to evaluate again")
+        hint = "delete it (or pass --no-cache) to evaluate again"
+        stored = read_json(path, hint)
         if not isinstance(stored, dict):
-            raise ValueError(f"{path}: a cached result must be a JSON object; delete it (or pass --no-cache)")
+            raise ValueError(f"{path}: a cached result must be a JSON object; {hint}")
         stored.pop(PROVENANCE_KEY, None)
+        if check is not None:
+            check(Fields(path, hint), stored)
         return stored
 
     def store(self, blob: str | None, settings: dict, result: dict) -> str:

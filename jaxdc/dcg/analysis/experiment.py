@@ -18,10 +18,12 @@ from typing import Callable
 import jax
 
 from jaxdc import pretrained
+from jaxdc.core.record_fields import Fields
 from jaxdc.dcg import learned as learned_lib
 from jaxdc.dcg.analysis.cache import EvaluationCache
 from jaxdc.dcg.analysis.collector_eval import ExactBounds, evaluate, fraction
 from jaxdc.dcg.analysis.figures import Experiment, select
+from jaxdc.dcg.analysis.records import check_bound, check_evaluation, check_figure
 from jaxdc.dcg.exact.many_items import sampled_bound
 from jaxdc.io import read_json, unlimited_to_json
 
@@ -92,7 +94,7 @@ def run_experiment(exp: Experiment, pool: dict, folder: str, settings: Experimen
             bar = dict(episodes=settings.episodes, seed=settings.seed, energy=entry.energy,
                        strategies=entry.strategies, reward_area=entry.reward_area, greedy=settings.greedy,
                        bound=settings.bound)
-            r = cache.load(blob, bar)
+            r = cache.load(blob, bar, check_evaluation)
             if r is None:
                 if entry.name not in loaded:
                     loaded[entry.name] = learned_lib.load(blob)
@@ -127,7 +129,7 @@ def game_bound(learned, episodes: int, cache: EvaluationCache) -> dict | None:
     env, params = learned.game()
     game = {"env": repr(env), "energy": unlimited_to_json(float(params.max_energy)), "max_steps": int(params.max_steps),
             "chase_tie": int(params.chase_tie), "episodes": episodes, "key": 0}
-    stored = cache.load(None, game)
+    stored = cache.load(None, game, check_bound)
     if stored is not None:
         return stored
     try:
@@ -142,11 +144,11 @@ def game_bound(learned, episodes: int, cache: EvaluationCache) -> dict | None:
 
 def stored_standard(out: str) -> dict | None:
     """The standard experiment's bars as written to ``out/figure_standard.json`` (``{None: {label: result}}``),
-    which the double-blind claims compare with; ``None`` if it was not made."""
+    which the double-blind claims compare with; ``None`` if it was not made. A damaged file
+    (:func:`jaxdc.dcg.analysis.records.check_figure`) is a ``ValueError`` naming it and the key."""
     path = os.path.join(out, "figure_standard.json")
     if not os.path.isfile(path):
         return None
-    data = read_json(path, "rerun python -m eval.dcg figure 5.6")
-    if not isinstance(data, dict) or not isinstance(data.get("results"), dict):
-        raise ValueError(f"{path}: not a figure file of python -m eval.dcg (no 'results' object)")
+    hint = "rerun python -m eval.dcg figure 5.6"
+    data = check_figure(Fields(path, hint), read_json(path, hint))
     return {None: data["results"].get("all", {})}
