@@ -207,6 +207,8 @@ def read_metadata(path: PathLike) -> dict:
     (:func:`check_metadata_values`); each failure is a ``ValueError`` naming the file (and the key).
     """
     blob, meta = _paths(path)
+    if os.path.isdir(meta):
+        raise ValueError(f"parameter file {blob}: metadata {meta} is a folder, not a JSON file")
     if not os.path.isfile(meta):
         raise ValueError(f"parameter file {blob}: metadata {meta} not found (was it written by jaxdc.pretrained.save?)")
     try:

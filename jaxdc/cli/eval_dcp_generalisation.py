@@ -32,7 +32,7 @@ import sys
 from jaxdc import pretrained
 from jaxdc.cli.args import integer, positive_int, seed
 from jaxdc.cli.runner import command_line
-from jaxdc.core.generators import GENERATORS
+from jaxdc.core.generators import GENERATORS, MAX_SEED_COUNT
 from jaxdc.core.grid import check_grid_size
 from jaxdc.core.validate import value_text
 from jaxdc.dcp import learned as learned_lib
@@ -54,7 +54,7 @@ def add_parser(sub, prog: str) -> argparse.ArgumentParser:
                        description="A learned network over maps and budgets it was and was not trained on.")
     p.add_argument("--checkpoint", required=True,
                    help="a shipped name (enn_general), a .msgpack file or a train.dcp run folder")
-    p.add_argument("--maps-per-source", type=positive_int("--maps-per-source"), default=2,
+    p.add_argument("--maps-per-source", type=positive_int("--maps-per-source", high=MAX_SEED_COUNT), default=2,
                    help="training maps and held-out maps in the grid (each; the thesis' three maps always)")
     p.add_argument("--budgets", type=float, nargs="+", default=None, metavar="E",
                    help="pairs INIT MAX, e.g. 8 16 16 32 (default: 4/8 6/12 8/16 12/24 16/32 24/48 32/64)")

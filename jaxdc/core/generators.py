@@ -233,6 +233,10 @@ def generator(name: str) -> RiskGenerator:
     return GENERATORS[name]
 
 
+#: The most map seeds one :class:`SeedSet` holds.
+MAX_SEED_COUNT = 1 << 20
+
+
 @dataclasses.dataclass(frozen=True)
 class SeedSet:
     """The map seeds ``start .. start + count - 1``."""
@@ -242,7 +246,7 @@ class SeedSet:
 
     def __post_init__(self) -> None:
         check_int("SeedSet.start", self.start, 0, SEED_MAX)
-        check_int("SeedSet.count", self.count, 1, 1 << 20)
+        check_int("SeedSet.count", self.count, 1, MAX_SEED_COUNT)
         if self.start + self.count - 1 > SEED_MAX:
             raise ValueError(f"SeedSet: start + count - 1 must be <= {SEED_MAX}, got {self.start + self.count - 1}")
 
@@ -264,7 +268,7 @@ TEST_SEED_START = 1 << 30
 def split_seeds(train: int, test: int) -> tuple[SeedSet, SeedSet]:
     """Disjoint training and test map seeds: ``0 .. train-1`` and ``2**30 .. 2**30 + test - 1``."""
     check_int("train", train, 1, TEST_SEED_START)
-    return SeedSet(0, train), SeedSet(TEST_SEED_START, check_int("test", test, 1, 1 << 20))
+    return SeedSet(0, train), SeedSet(TEST_SEED_START, check_int("test", test, 1, MAX_SEED_COUNT))
 
 
 def check_disjoint(train: SeedSet, test: SeedSet) -> None:
@@ -288,6 +292,6 @@ def make_maps(gen: RiskGenerator, seeds: SeedSet, grid_size: int) -> np.ndarray:
     return np.asarray(draw(jnp.asarray(seeds.seeds())))
 
 
-__all__ = ["GENERATORS", "MAX_GENERATED_RISK", "TEST_SEED_START", "Bumps", "Mixture", "Preset", "RiskGenerator",
-           "Rings", "SeedSet", "SkewedRisk", "UniformRisk", "check_disjoint", "generator", "make_maps", "map_key",
-           "split_seeds"]
+__all__ = ["GENERATORS", "MAX_GENERATED_RISK", "MAX_SEED_COUNT", "TEST_SEED_START", "Bumps", "Mixture", "Preset",
+           "RiskGenerator", "Rings", "SeedSet", "SkewedRisk", "UniformRisk", "check_disjoint", "generator", "make_maps",
+           "map_key", "split_seeds"]

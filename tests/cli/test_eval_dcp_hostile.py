@@ -292,3 +292,12 @@ def test_dcp_generalisation_over_its_checkpoint_refused(tmp_path, capsys):
 def test_run_seed_without_a_checkpoint_refused(capsys):
     refused(cli.main, ["--policy", "enn", "--run-seed", "2", "--episodes", "4"], capsys,
             "--run-seed 2 needs --checkpoint (a train.dcp --seeds run folder)")
+
+
+@pytest.mark.parametrize("count, needles", [
+    ("0", ("--maps-per-source", ">= 1")),
+    ("100000000", ("--maps-per-source", "1048576", "100000000")),
+])
+def test_generalisation_maps_per_source_refused_by_flag(count, needles, capsys):
+    """The map count is refused by its flag, at the command line, not by the library's ``SeedSet.count``."""
+    refused(cli.main, ["generalisation", "--checkpoint", "enn_general", "--maps-per-source", count], capsys, *needles)

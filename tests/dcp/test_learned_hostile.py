@@ -3,6 +3,8 @@ refused with the file and the key, by the checks of the flags, strict about JSON
 
 from __future__ import annotations
 
+import shutil
+
 import pytest
 
 from jaxdc import pretrained
@@ -60,3 +62,12 @@ def test_a_body_the_network_cannot_build_names_the_file(tmp_path):
 def test_shipped_sidecars_pass():
     for name in pretrained.shipped_names("dcp"):
         learned_lib.check_setting(pretrained.read_metadata(pretrained.shipped("dcp", name)), name)
+
+
+def test_a_sidecar_that_is_a_folder_is_named_as_a_folder(tmp_path):
+    """A folder at the sidecar's name is not reported as a missing file."""
+    blob = tmp_path / "net.msgpack"
+    shutil.copy(pretrained.shipped("dcp", "enn_general"), blob)
+    (tmp_path / "net.json").mkdir()
+    with pytest.raises(ValueError, match=r"net\.json is a folder, not a JSON file"):
+        learned_lib.load(str(blob))
