@@ -43,12 +43,20 @@ def _register() -> None:
             id=_GYM_ID,
             entry_point="jaxdc.wrappers.gymnasium:make_dcp",
             vector_entry_point="jaxdc.wrappers.gymnasium:make_dcp_vector",
+            # gymnasium's PassiveEnvChecker marks its first reset done before calling ours, so a refused first
+            # reset broke its first step (TypeError from the checker); jaxdc's adapters check their input
+            # themselves and the tests run gymnasium's full check_env.
+            disable_env_checker=True,
         )
     if _DCG_GYM_ID not in gymnasium.registry:
         gymnasium.register(
             id=_DCG_GYM_ID,
             entry_point="jaxdc.wrappers.gymnasium:make_dcg",
             vector_entry_point="jaxdc.wrappers.gymnasium:make_dcg_vector",
+            # gymnasium's PassiveEnvChecker marks its first reset done before calling ours, so a refused first
+            # reset broke its first step (TypeError from the checker); jaxdc's adapters check their input
+            # themselves and the tests run gymnasium's full check_env.
+            disable_env_checker=True,
         )
 
 

@@ -28,10 +28,11 @@ import os
 import sys
 import time
 
+from jaxdc import pretrained
 from jaxdc.cli.args import positive_int, seed
 from jaxdc.io import check_output_folder
 from jaxdc.pretrained import ASSETS
-from jaxdc.training.ship import EVERY, SHIPPED, export, train_all, train_command
+from jaxdc.training.ship import EVERY, SHIPPED, export_metadata, failure_line, train_all, train_command
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -49,8 +50,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    """Train and export; the exit status. The output folders are checked before any work; Ctrl-C stops the
-    child trainings (none is left running) and exits 130 through :func:`jaxdc.cli.runner.run`."""
+    """Train and export; the exit status. The output folders are checked before any work; a failed training is
+    exit 1 with its log's error line (e.g. a run folder in use by another run: the folder and the process); every
+    export is checked (:func:`jaxdc.training.ship.export_metadata`: the run's ``metrics.csv`` and the metadata, as
+    the loader checks them) before any file is written, a refusal exit 2 naming the file, the line and the column;
+    Ctrl-C stops the child trainings (none is left running) and exits 130 through :func:`jaxdc.cli.runner.run`."""
     p = build_parser()
     args = p.parse_args(argv)
     names = args.only or list(SHIPPED)
@@ -72,16 +76,25 @@ def main(argv=None) -> int:
     if not args.export_only:
         failed = train_all(names, commands, args.runs, args.jobs)
         if failed:
-            print(f"error: training failed for {failed}; see {args.runs}/<name>.log", file=sys.stderr)
+            why = "; ".join(f"{n}: {line}" for n in failed if (line := failure_line(args.runs, n)) is not None)
+            print(f"error: training failed for {failed}{f' ({why})' if why else ''}; see {args.runs}/<name>.log",
+                  file=sys.stderr)
             return 1
-    for n in names:
+    exports = {}
+    for n in names:  # every export is checked before any file is written
         if n in dcg_names:  # train.dcg --ship wrote it
             continue
         try:
-            path = export(n, os.path.join(args.runs, n), commands[n], args.out)
+            exports[n] = export_metadata(n, os.path.join(args.runs, n), commands[n])
         except ValueError as e:
-            print(f"error: {n}: {e}", file=sys.stderr)
-            return 1
+            print(f"python -m train.ship: error: {n}: {e}", file=sys.stderr)
+            return 2
+    for n, (params, metadata) in exports.items():
+        try:
+            path = pretrained.save(os.path.join(args.out, n), params, metadata)
+        except ValueError as e:
+            print(f"python -m train.ship: error: {n}: {e}", file=sys.stderr)
+            return 2
         print(f"exported {path}", file=sys.stderr)
     print(f"done in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     return 0

@@ -19,13 +19,22 @@ from typing import Any
 from jaxdc.checkpoint import writing
 from jaxdc.io import atomic_write
 
+#: What a damaged metrics file's error tells a resumed run to do.
+RESUME_FIX = "repair it, or move it away to start a new history at the checkpoint"
+
 
 def read_rows(path: str, max_updates: int) -> list[dict]:
     """The CSV rows of ``path`` up to update ``max_updates`` (a resumed run drops rows past its checkpoint); none
     if there is no file. A damaged file is a ``ValueError`` naming it, the line and the column."""
+    return [row for _, row in numbered_rows(path) if int(float(row["updates"])) <= max_updates]
+
+
+def numbered_rows(path: str, fix: str = RESUME_FIX) -> list[tuple[int, dict]]:
+    """``(line, row)`` of every CSV row of ``path`` (its line number in the file, the header being line 1); none if
+    there is no file. A damaged file (see the module docs) is a ``ValueError`` naming it, the line and the column,
+    ending with ``fix`` (what to do about it)."""
     if not os.path.lexists(path):
         return []
-    fix = "repair it, or move it away to start a new history at the checkpoint"
     if not os.path.isfile(path):
         raise ValueError(f"metrics file {path} is not a file ({'a folder' if os.path.isdir(path) else 'broken'}); "
                          f"{fix}")
@@ -53,8 +62,7 @@ def read_rows(path: str, max_updates: int) -> list[dict]:
             raise ValueError(f"metrics file {path}: line {n}, column updates: {row['updates']!r} is not an update "
                              f"count after {last}; {fix}")
         last = int(update)
-        if last <= max_updates:
-            rows.append(row)
+        rows.append((n, row))
     return rows
 
 

@@ -14,7 +14,7 @@ every environment setting, the steps, the seed and the exact command.
 
 from __future__ import annotations
 
-import csv
+import math
 import os
 import subprocess
 import sys
@@ -25,10 +25,11 @@ from typing import Any
 from jaxdc import pretrained
 from jaxdc.dcp import learned as learned_lib
 from jaxdc.dcp.env import DCP
+from jaxdc.training.metrics import numbered_rows
 from jaxdc.training.presets import ALL, BEYOND, DCG_STRONG, EVERY, PPO, SHIPPED, Preset
 
-__all__ = ["ALL", "BEYOND", "DCG_STRONG", "EVERY", "PPO", "POLL_S", "SHIPPED", "STOP_TIMEOUT", "Preset", "export",
-           "jaxdc_command", "stop_children", "train_all", "train_command"]
+__all__ = ["ALL", "BEYOND", "DCG_STRONG", "EVERY", "PPO", "POLL_S", "SHIPPED", "STOP_TIMEOUT", "TRAIN_EVAL", "Preset",
+           "export", "export_metadata", "failure_line", "jaxdc_command", "stop_children", "train_all", "train_command"]
 
 #: Seconds between checks of the running trainings.
 POLL_S = 5
@@ -60,21 +61,64 @@ def jaxdc_command(command: Sequence[str]) -> list[str]:
     return [sys.executable, "-m", "jaxdc", "train", command[2].split(".", 1)[1], *command[3:]]
 
 
-def _last_row(run: str) -> dict:
+#: The evaluation columns of ``metrics.csv`` an export records (``"train_eval"`` of the metadata).
+TRAIN_EVAL = ("eval_reward", "eval_energy", "eval_rpe")
+#: What a damaged ``metrics.csv`` error tells the exporter to do.
+_EXPORT_FIX = "repair the file (or move it away to export without the training's last evaluation)"
+
+
+def _last_row(run: str) -> tuple[str, int, dict]:
+    """``(path, line, row)`` of the last row of the run's ``metrics.csv`` (``line`` 0 and ``{}`` without one); a
+    damaged file is a ``ValueError`` naming it, the line and the column
+    (:func:`jaxdc.training.metrics.numbered_rows`)."""
     path = os.path.join(run, "metrics.csv")
-    if not os.path.exists(path):
-        return {}
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    return rows[-1] if rows else {}
+    rows = numbered_rows(path, _EXPORT_FIX)
+    return (path, *rows[-1]) if rows else (path, 0, {})
 
 
-def export(name: str, run: str, command: list[str], out: str) -> str:
-    """Export the last checkpoint of ``run`` as ``out/<name>.msgpack`` with its metadata (sections 4.4.3, 4.5)."""
+def _csv_steps(text: str, where: str) -> int:
+    """The ``env_steps`` of a metrics row as the metadata's ``steps``: an int >= 1 (:data:`jaxdc.metadata.COUNTS`,
+    the check :func:`jaxdc.pretrained.read_metadata` applies); else a ``ValueError`` naming ``where``."""
+    try:
+        v: float = int(text)
+    except ValueError:
+        try:
+            v = float(text)
+        except ValueError:
+            v = math.nan
+    if not math.isfinite(v) or v != int(v) or v < 1:
+        raise ValueError(f"{where}: {text!r} must be an int >= 1 (the exported metadata's steps); {_EXPORT_FIX}")
+    return int(v)
+
+
+def _csv_number(text: str, where: str) -> float:
+    """A finite number of a metrics row (strict JSON has no NaN or infinity); else a ``ValueError`` naming ``where``."""
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not math.isfinite(v):
+        raise ValueError(f"{where}: {text!r} must be a finite number (the exported metadata is strict JSON); "
+                         f"{_EXPORT_FIX}")
+    return v
+
+
+def export_metadata(name: str, run: str, command: list[str]) -> tuple[Any, dict]:
+    """``(params, metadata)`` that :func:`export` writes for ``run``, every value checked first: what the run's
+    ``metrics.csv`` gives (its last row's ``env_steps`` an int >= 1, its evaluation columns finite numbers; each
+    error names the file, the line and the column) and then the whole metadata with the checks
+    :func:`jaxdc.pretrained.read_metadata` applies (:func:`jaxdc.pretrained.check_metadata_values`), so an export
+    never writes a file its loader refuses. Nothing is written."""
     learned = learned_lib.load(run)
     meta = learned.metadata
     env = DCP(grid_size=meta["grid_size"], total_reward=meta["total_reward"])  # train.dcp's environment
-    last = _last_row(run)
+    csv_path, line, last = _last_row(run)
+
+    def where(column: str) -> str:
+        return f"metrics file {csv_path}: line {line}, column {column}"
+
+    steps = (_csv_steps(last["env_steps"], where("env_steps")) if last.get("env_steps")
+             else meta["algorithm"]["total_steps"])
     metadata = {
         "net": learned.net_name, "problem": "dcp", **learned.setting(),
         "min_total_reward": meta["min_total_reward"],
@@ -83,12 +127,32 @@ def export(name: str, run: str, command: list[str], out: str) -> str:
                                    "init_from", "init_sha256") if k in meta},
         "env": {"start": env.start, "items_on_base": env.items_on_base, "idle_terminates": env.idle_terminates,
                 "item_order": env.item_order},
-        "steps": int(last.get("env_steps") or meta["algorithm"]["total_steps"]),
+        "steps": steps,
         "seed": meta["seed"], "algorithm": meta["algorithm"], "tables": ALL[name].description,
         "command": " ".join(command),
-        "train_eval": {k: float(last[k]) for k in ("eval_reward", "eval_energy", "eval_rpe") if last.get(k)},
+        "train_eval": {k: _csv_number(last[k], where(k)) for k in TRAIN_EVAL if last.get(k)},
     }
-    return pretrained.save(os.path.join(out, name), learned.params, metadata)
+    pretrained.check_metadata_values(metadata, f"the metadata exported from run folder {run}")
+    return learned.params, metadata
+
+
+def export(name: str, run: str, command: list[str], out: str) -> str:
+    """Export the last checkpoint of ``run`` as ``out/<name>.msgpack`` with its metadata (sections 4.4.3, 4.5),
+    checked first (:func:`export_metadata`)."""
+    params, metadata = export_metadata(name, run, command)
+    return pretrained.save(os.path.join(out, name), params, metadata)
+
+
+def failure_line(runs: str, name: str) -> str | None:
+    """The last error line of a failed training's log ``runs/<name>.log`` (e.g. the refusal of a run folder in use
+    by another run, naming the folder and the process), or ``None`` if there is none."""
+    try:
+        with open(os.path.join(runs, f"{name}.log"), encoding="utf-8", errors="replace") as f:
+            lines = [line.strip() for line in f if line.strip()]
+    except OSError:
+        return None
+    errors = [line for line in lines if "error" in line.lower()]
+    return (errors or lines or [None])[-1]
 
 
 #: Seconds a child training gets to exit after ``terminate()`` before it is killed.

@@ -23,7 +23,26 @@ from gymnasium import spaces
 
 from jaxdc.core.env import Environment
 
-__all__ = ["reset_one", "step_one", "reset", "step", "host_spaces"]
+__all__ = ["reset_one", "step_one", "reset", "step", "host_spaces", "RESET_OPTIONS", "check_reset_options",
+           "check_params"]
+
+#: The reset options the adapters take: none (the environment's parameters are set with ``params=...``).
+RESET_OPTIONS: tuple[str, ...] = ()
+
+
+def check_reset_options(options: Any, name: str = "options") -> None:
+    """Refuse reset ``options`` (``None`` or a dict of :data:`RESET_OPTIONS` keys): a ``TypeError`` for a non-dict,
+    a ``ValueError`` naming the unknown keys and the allowed ones, so a misspelt or unsupported option is never
+    silently ignored."""
+    if options is None:
+        return
+    if not isinstance(options, dict):
+        raise TypeError(f"{name} must be a dict or None, got {type(options).__name__}")
+    unknown = sorted(map(str, set(options) - set(RESET_OPTIONS)))
+    if unknown:
+        allowed = f"the allowed keys are {list(RESET_OPTIONS)}" if RESET_OPTIONS else "the jaxdc adapters take none"
+        raise ValueError(f"reset options {unknown} are not known: {allowed} (set the environment's parameters with "
+                         "params=...)")
 
 
 @partial(jax.jit, static_argnums=0)
@@ -56,6 +75,26 @@ def step(env: Environment, num_envs: int, key: jax.Array, state: Any, actions: j
     key, sub = jax.random.split(key)
     out = jax.vmap(env.step, in_axes=(0, 0, 0, None))(jax.random.split(sub, num_envs), state, actions, params)
     return (key,) + tuple(out)
+
+
+def check_params(env: Environment, params: Any) -> Any:
+    """``params`` checked once, at an adapter's entry (outside jit): their kind and shapes
+    (:meth:`~jaxdc.core.env.Environment.check_params`), then their VALUES for the DCP's and the DCG's parameters
+    (:func:`jaxdc.dcp.evaluate.check_param_values`, :func:`jaxdc.dcg.evaluate.check_param_values`: risks finite in
+    ``[0, 1]`` with base risk 0, energies > 0 or ``inf``, ``max_steps`` >= 1, ...), so params edited with
+    ``.replace(...)`` (a NaN risk map, an infinite risk) are refused with a ``ValueError`` naming the field
+    instead of playing silently."""
+    params = env.check_params(params)
+    from jaxdc.dcg.types import EnvParams as DCGParams
+    from jaxdc.dcp.types import EnvParams as DCPParams
+
+    if isinstance(params, DCPParams):
+        from jaxdc.dcp.evaluate import check_param_values
+    elif isinstance(params, DCGParams):
+        from jaxdc.dcg.evaluate import check_param_values
+    else:  # another environment's: its own check_params is all there is
+        return params
+    return check_param_values(params)
 
 
 def host_spaces(env: Environment, params: Any,

@@ -117,15 +117,16 @@ class _KeyedReset:
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         """Start new episodes (see the key scheme above). The adapters take no reset ``options``: any key is
-        refused (``ValueError`` naming it), so a misspelt or unsupported option is never silently ignored."""
+        refused (``ValueError`` naming it), so a misspelt or unsupported option is never silently ignored.
+
+        The seed and the options are checked before anything changes: a refused reset leaves the key, the state
+        and ``np_random`` as they were. (Through ``gymnasium.make``, gymnasium's ``PassiveEnvChecker`` -- unless
+        the id is registered with ``disable_env_checker=True`` -- marks its first reset as done *before* calling
+        this one, so after a refused first reset its first ``step`` fails inside the checker with ``TypeError:
+        cannot unpack non-iterable NoneType object``; nothing here can undo the checker's flag.)"""
         if seed is not None:
             check_seed("seed", seed)
-        if options is not None:
-            if not isinstance(options, dict):
-                raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
-            if options:
-                raise ValueError(f"reset options {sorted(map(str, options))} are not known: the jaxdc adapters take "
-                                 "none (set the environment's parameters with params=...)")
+        batched.check_reset_options(options)
         super().reset(seed=seed)  # type: ignore[misc]  # gymnasium's Env/VectorEnv, next in the adapter's MRO
         if seed is not None:
             self._key = jax.random.PRNGKey(seed)
@@ -150,7 +151,8 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
 
     Args:
       env: the functional environment.
-      params: its ``EnvParams`` (default: ``env.default_params``).
+      params: its ``EnvParams`` (default: ``env.default_params``), checked once here, values included
+        (:func:`jaxdc.wrappers.batched.check_params`).
       render_mode: ``None``, ``"ansi"`` (text) or ``"rgb_array"`` (``uint8 [H, W, 3]``; environments that
         write ``scene``, as the DCP and DCG do).
       outcome_names: names for ``info["outcome"]`` indices (default: the
@@ -166,7 +168,7 @@ class JaxToGymnasium(_KeyedReset, gymnasium.Env):
                  outcome_names: Sequence[str] | None = None, observation_space: spaces.Space | None = None) -> None:
         self.render_mode = _check_render_mode(render_mode, env)
         self.env = env
-        self.params = env.default_params if params is None else env.check_params(params)
+        self.params = batched.check_params(env, env.default_params if params is None else params)
         self.observation_space, self.action_space = batched.host_spaces(env, self.params, observation_space)
         self.outcome_names = _outcome_names(env, outcome_names)
         self._key = None
@@ -231,7 +233,7 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
         self.render_mode = _check_render_mode(render_mode, env)
         self.env = env
         self.num_envs = int(num_envs)
-        self.params = env.default_params if params is None else env.check_params(params)
+        self.params = batched.check_params(env, env.default_params if params is None else params)
         self.single_observation_space, self.single_action_space = batched.host_spaces(env, self.params,
                                                                                       observation_space)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)

@@ -54,13 +54,14 @@ class JaxdcVecEnv(VecEnv):
     Args:
       env: the functional environment (e.g. ``DCP(...)``, ``DCG(...)``).
       num_envs: the number of copies (>= 1).
-      params: its ``EnvParams`` (default ``env.default_params``).
+      params: its ``EnvParams`` (default ``env.default_params``), checked once here, values included
+        (:func:`jaxdc.wrappers.batched.check_params`).
       seed: the seed of the first reset (0 .. 2**32 - 1); ``None`` draws one.
     """
 
     def __init__(self, env: Environment, num_envs: int, params: Any = None, seed: int | None = 0) -> None:
         self.env = env
-        self.params = env.default_params if params is None else env.check_params(params)
+        self.params = batched.check_params(env, env.default_params if params is None else params)
         self.render_mode = None
         n = check_positive_int("num_envs", num_envs)
         obs_space, act_space = batched.host_spaces(env, self.params)
@@ -74,7 +75,25 @@ class JaxdcVecEnv(VecEnv):
         self._started = np.full(n, time.perf_counter())
 
     # -- the VecEnv interface -------------------------------------------------------------
+    def set_options(self, options: list[dict] | dict | None = None) -> None:
+        """Set the options of the next reset, as SB3 does; the jaxdc adapters take none
+        (:data:`jaxdc.wrappers.batched.RESET_OPTIONS`), so any key is refused here, at once (a ``ValueError`` naming
+        it and the allowed keys; nothing is stored), as the gymnasium adapters refuse it in ``reset``."""
+        self._check_options(options)
+        super().set_options(options)
+
+    def _check_options(self, options: Any) -> None:
+        if isinstance(options, (list, tuple)):
+            if len(options) != self.num_envs:
+                raise ValueError(f"options: a list needs one dict (or None) per copy, {self.num_envs}, "
+                                 f"got {len(options)}")
+            for i, o in enumerate(options):
+                batched.check_reset_options(o, f"options[{i}]")
+        else:
+            batched.check_reset_options(options)
+
     def reset(self) -> np.ndarray:
+        self._check_options(self._options)  # set_options refuses them; this catches options stored by other means
         seed = self._seeds[0] if self._seeds[0] is not None else self._first_seed
         if seed is None and self._key is None:
             seed = int(np.random.randint(0, 2**31 - 1))
@@ -126,7 +145,8 @@ class JaxdcVecEnv(VecEnv):
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
         """Set an attribute of the vector env. ``params`` (shared by all copies, so ``indices`` must name all
-        of them) go through :meth:`jaxdc.core.env.Environment.check_params` and must keep the spaces;
+        of them) go through :func:`jaxdc.wrappers.batched.check_params` (kind, shapes and values) and must keep the
+        spaces;
         :data:`READ_ONLY` attributes are refused."""
         if attr_name in self.READ_ONLY:
             raise ValueError(f"set_attr: {attr_name!r} is fixed at construction; build a new JaxdcVecEnv instead")
@@ -135,7 +155,7 @@ class JaxdcVecEnv(VecEnv):
             if idx != list(range(self.num_envs)):
                 raise ValueError(f"set_attr: 'params' are shared by all {self.num_envs} copies; indices must "
                                  f"name all of them, got {indices!r}")
-            value = self.env.check_params(value)
+            value = batched.check_params(self.env, value)
             obs_space, act_space = batched.host_spaces(self.env, value)
             if obs_space != self.observation_space or act_space != self.action_space:
                 raise ValueError("set_attr: these 'params' change the observation or action space "

@@ -50,3 +50,48 @@ def test_unknown_reset_options_refused(options):
     gym.reset(seed=0, options={})  # an empty dict is no option
     with pytest.raises(TypeError, match="options must be a dict"):
         gym.reset(options=["risk"])
+
+
+# ----------------------------------------------------------------------------- refused resets change nothing
+
+
+def _snapshot(env):
+    import jax
+    import numpy as np
+
+    key = None if env._key is None else np.asarray(env._key).tolist()
+    state = None if env.state is None else [np.asarray(x).tolist() for x in jax.tree_util.tree_leaves(env.state)]
+    return key, state, env._ended, env._np_random.bit_generator.state if env._np_random is not None else None
+
+
+@pytest.mark.parametrize("bad", [{"seed": 0, "options": {"risk": "low"}}, {"seed": -1}, {"seed": 2**32},
+                                 {"options": ["risk"]}])
+@pytest.mark.parametrize("first", [True, False])
+def test_a_refused_reset_changes_nothing(bad, first):
+    """jaxdc's reset checks its seed and options before it touches anything: a refused reset (the first one or a
+    later one) leaves the key, the state, the episode's end and gymnasium's np_random as they were."""
+    for env in (JaxToGymnasium(DCP(grid_size=4)), JaxVectorEnv(DCP(grid_size=4), 2)):
+        if not first:
+            env.reset(seed=3)
+            env.step(0 if isinstance(env, JaxToGymnasium) else [0, 0])
+        before = _snapshot(env)
+        with pytest.raises((TypeError, ValueError), match="seed|options"):
+            env.reset(**bad)
+        assert _snapshot(env) == before
+        env.reset(seed=0)
+        env.step(0 if isinstance(env, JaxToGymnasium) else [0, 0])
+
+
+@pytest.mark.parametrize("env_id, bad", [("jaxdc/DCP-v0", {"seed": 0, "options": {"risk": "low"}}),
+                                         ("jaxdc/DCP-v0", {"seed": -1}), ("jaxdc/DCG-v0", {"seed": -1})])
+def test_gym_make_steps_after_a_refused_first_reset(env_id, bad):
+    """Through gym.make: a refused first reset, then reset(seed=0) and step(0) must work (gymnasium's passive
+    checker raised ``TypeError: cannot unpack non-iterable NoneType object`` on that step)."""
+    import gymnasium
+
+    kwargs = {"grid_size": 4} if "DCP" in env_id else {}
+    env = gymnasium.make(env_id, **kwargs)
+    with pytest.raises((TypeError, ValueError), match="seed|options"):
+        env.reset(**bad)
+    env.reset(seed=0)
+    assert len(env.step(0)) == 5

@@ -55,3 +55,41 @@ def test_set_attr_of_fixed_attributes_is_refused(name):
     venv = _venv()
     with pytest.raises(ValueError, match=name):
         venv.set_attr(name, None)
+
+
+@pytest.mark.parametrize("options", [{"bogus": 1}, [{}, {"risk": "low"}]])
+def test_unknown_reset_options_are_refused(options):
+    """SB3's set_options stored any key and reset() dropped it silently; the adapter refuses it as the gymnasium
+    adapters do (naming the key and the allowed ones), and stores nothing."""
+    venv = _venv()
+    with pytest.raises(ValueError, match=r"reset options \['(bogus|risk)'\] are not known: .*take none"):
+        venv.set_options(options)
+    assert venv._options == [{}, {}]
+    venv.reset()
+    venv.set_options({})  # no option is fine
+    venv.set_options(None)
+    venv.reset()
+    with pytest.raises(TypeError, match=r"options\[1\] must be a dict or None"):
+        venv.set_options([{}, "risk"])
+    with pytest.raises(ValueError, match="one dict .* per copy, 2, got 1"):
+        venv.set_options([{}])
+    venv._options = [{"bogus": 1}, {}]  # stored behind set_options' back: refused by reset, before any change
+    with pytest.raises(ValueError, match="bogus"):
+        venv.reset()
+
+
+@pytest.mark.parametrize("field, value, match", [
+    ("risk", np.inf, r"params\.risk: .*finite numbers in \[0, 1\], got inf at cell \(1, 1\)"),
+    ("risk", np.nan, r"params\.risk: .*finite numbers in \[0, 1\], got nan"),
+    ("risk", 1.5, r"params\.risk: .*must lie in \[0, 1\]"),
+])
+def test_set_attr_params_with_bad_values_is_refused(field, value, match):
+    import jax.numpy as jnp
+
+    venv = _venv()
+    before = venv.params
+    with pytest.raises(ValueError, match=match):
+        venv.set_attr("params", before.replace(risk=before.risk.at[1, 1].set(value)))
+    assert venv.params is before
+    with pytest.raises(ValueError, match=r"params\.max_steps: max_steps must be in \[1, 2147483647\], got 0"):
+        JaxdcVecEnv(DCP(grid_size=6), 2, before.replace(max_steps=jnp.int32(0)))
