@@ -83,6 +83,7 @@ from jaxdc.io import (
     check_output_path,
     enable_compilation_cache,
     json_text,
+    unlimited_to_json,
 )
 from jaxdc.provenance import provenance
 from jaxdc.viewer.bars import bar_chart_png, strategy_chart_png
@@ -278,11 +279,13 @@ def _evaluate(args, command) -> int:
         if team and s.reward_area is not None:
             raise ValueError("--reward-area plays the one-collector game of Figs. 5.10-5.12; a team (--collectors, "
                              "or a network trained as a team) plays the standard game")
-        if not s.json:
-            print(f"Evaluating {learned.describe()}: {s.episodes} games, seed {s.seed} ...", file=sys.stderr)
         if team and s.mask not in (None, "none"):
             raise ValueError(f"--mask {s.mask} plays one collector; a team (--collectors, or a network trained "
                              "as a team) plays without one")
+        # the result's name depends only on the network and the settings: check the file before any game
+        expected = check_output_path(_result_path(s, learned, team), "--out file", _checkpoint_inputs(args))
+        if not s.json:
+            print(f"Evaluating {learned.describe()}: {s.episodes} games, seed {s.seed} ...", file=sys.stderr)
         with runner.progress(PROG, s.max_steps):  # a huge --max-steps: a line a minute while it plays
             if team:
                 r = evaluate_learned_team(learned, s.collectors, episodes=s.episodes, seed=s.seed, greedy=s.greedy,
@@ -297,11 +300,12 @@ def _evaluate(args, command) -> int:
     if s.run_seed is not None:
         r["run_seed"] = s.run_seed
     line = json_text(r, indent=None)  # strict: refused before anything is written
-    try:  # the name depends on the setting played, so it is known only now (still before anything is written)
-        name = team_result_name(r) if team else result_name(r)
-        target = check_output_path(os.path.join(s.out, name), "--out file", _checkpoint_inputs(args))
-    except ValueError as e:
-        args.error(str(e))
+    target = os.path.join(s.out, team_result_name(r) if team else result_name(r))
+    if target != expected:  # the name checked is the one the results give; should they ever differ, check it too
+        try:
+            target = check_output_path(target, "--out file", _checkpoint_inputs(args))
+        except ValueError as e:
+            args.error(str(e))
     path = atomic_write_json(target, {**r, "provenance": provenance()})
     if s.json:
         print(line)
@@ -309,6 +313,31 @@ def _evaluate(args, command) -> int:
         print(team_report(r) if team else report(r))
         print(f"written to {path}", file=sys.stderr)
     return 0
+
+
+def _result_path(s: EvaluateSettings, learned, team: bool) -> str:
+    """The JSON file an evaluation of ``learned`` with ``s`` writes, before it is played: the name
+    (:func:`result_name`, :func:`team_result_name`) from the settings the evaluation records (the game of
+    ``learned`` with the changes of ``s``; :func:`jaxdc.dcg.analysis.collector_eval.evaluate`,
+    :func:`jaxdc.dcg.analysis.team.evaluate_learned`), so that a folder or a dangling symbolic link at it, or an
+    input, is refused before any game."""
+    if team:
+        k = learned.collectors if s.collectors is None else s.collectors
+        env, _ = learned.game(strategies=s.strategies)
+        energy = learned.setting()["energy"] if s.energy is None else s.energy
+        record = {"source": learned.source, "collectors": k, "greedy": bool(s.greedy), "run_seed": s.run_seed,
+                  "seed": s.seed, "setting": {"energy": energy, "strategies": list(env.strategies)}}
+        return os.path.join(s.out, team_result_name(record))
+    env, params = learned.game(energy=s.energy, strategies=s.strategies, reward_area=s.reward_area,
+                               max_steps=s.max_steps)
+    mask = learned.mask if s.mask is None else s.mask
+    record = {"net": learned.net_name, "alpha": learned.metadata.get("alpha"), "greedy": bool(s.greedy),
+              "run_seed": s.run_seed, "seed": s.seed,
+              "setting": {"energy": unlimited_to_json(float(params.max_energy)), "strategies": list(env.strategies),
+                          "reward_area": s.reward_area}}
+    if mask != "none":
+        record["mask"] = mask
+    return os.path.join(s.out, result_name(record))
 
 
 def _figure(args, command) -> int:

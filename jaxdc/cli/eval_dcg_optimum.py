@@ -20,7 +20,7 @@ from jaxdc.dcg.exact.many_items import sampled_bound
 from jaxdc.dcg.exact.team import FOG_TARGETS
 from jaxdc.dcg.exact.team import sampled_bound as team_bound
 from jaxdc.dcg.opponents import CHASE_TIES, STANDARD_STRATEGIES
-from jaxdc.io import atomic_write_json, check_output_folder, json_text
+from jaxdc.io import atomic_write_json, check_output_folder, check_output_path, json_text, unlimited_to_json
 from jaxdc.provenance import provenance
 
 #: Most unit rewards ``optimum`` drops (each sampled game holds every unit while it is dropped).
@@ -69,8 +69,18 @@ def add_parser(sub: Any, prog: str, results: str, energy_type: Callable[[], Call
 
 
 
+def result_path(s: OptimumSettings, env: DCG) -> str:
+    """The JSON file the search of ``s`` on ``env`` writes (:func:`optimum_name`; its name depends only on the
+    settings, so it is known, and checked, before any game is searched)."""
+    team = {} if s.collectors == 1 else {"collectors": s.collectors, "fog_target": s.fog_target}
+    record = {"optimum": team, "env": repr(env), "energy": unlimited_to_json(s.energy), "max_steps": s.max_steps,
+              "chase_tie": s.chase_tie, "seed": s.seed}
+    return os.path.join(s.out, optimum_name(record, s.episodes))
+
+
 def main(args: argparse.Namespace, command: str) -> int:
-    """Run the subcommand; the exit status. The output folder is checked before any game is searched."""
+    """Run the subcommand; the exit status. The output folder and the result file in it (a folder or a dangling
+    symbolic link at its name) are checked before any game is searched."""
     try:
         check_output_folder(args.out, "--out")
         s = OptimumSettings.from_args(args)
@@ -78,6 +88,7 @@ def main(args: argparse.Namespace, command: str) -> int:
         args.error(str(e))
     try:
         env = DCG(**s.game)
+        path = check_output_path(result_path(s, env), "--out file")
         params = env.make_params(energy=s.energy, max_steps=s.max_steps, chase_tie=s.chase_tie)
         if s.collectors == 1:
             res = sampled_bound(env, params, jax.random.PRNGKey(s.seed), s.episodes, progress=s.progress)
@@ -88,7 +99,9 @@ def main(args: argparse.Namespace, command: str) -> int:
         args.error(str(e))
     out = optimum_payload(res, env, energy=s.energy, max_steps=s.max_steps, chase_tie=s.chase_tie, seed=s.seed,
                           command=command)
-    path = os.path.join(s.out, optimum_name(out, s.episodes))
+    written = os.path.join(s.out, optimum_name(out, s.episodes))
+    if written != path:  # the name the search gives is the one checked; should they ever differ, check it too
+        path = check_output_path(written, "--out file")
     line = json_text(out, indent=None)
     atomic_write_json(path, {**out, "provenance": provenance()})
     if s.json:

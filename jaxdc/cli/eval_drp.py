@@ -7,9 +7,10 @@
 Outputs go to ``results/drp/`` (JSON, CSV and PNG, each written atomically; a figure's JSON, CSV and PNG
 land together). Every flag is checked before any work: counts are bounded (``--graphs``, ``--nodes``, the
 memory the experiment needs), robot values are finite in ``[0, 1e9]``, seeds in ``[0, 2**32 - 1]`` (graph
-``i`` uses ``seed + i``, which must stay in that range), and the output folder and ``--draw`` file must be
-writable. Every JSON written or printed is strict (no NaN or Infinity: an undefined statistic is ``null``
-with a reason). Ctrl-C exits 130 with one line; a bad input exits 2 with one line naming it.
+``i`` uses ``seed + i``, which must stay in that range), and the output folder, every file a subcommand writes
+into it (no folder or dangling symbolic link at its name) and the ``--draw`` file must be writable. Every
+JSON written or printed is strict (no NaN or Infinity: an undefined statistic is ``null`` with a reason).
+Ctrl-C exits 130 with one line; a bad input exits 2 with one line naming it.
 """
 
 from __future__ import annotations
@@ -225,8 +226,24 @@ def check_settings(p: argparse.ArgumentParser, s) -> None:
         check_output_folder(s.out, "--out", files=(os.path.basename(plan_path(s)),), inputs=inputs)
         if s.draw:
             check_output_path(s.draw, "--draw", inputs)
+    elif isinstance(s, FigureSettings):
+        check_output_folder(s.out, "--out", files=[os.path.basename(f) for f in figure_paths(s)])
     else:
-        check_output_folder(s.out, "--out")
+        check_output_folder(s.out, "--out", files=(os.path.basename(gaps_path(s)),))
+
+
+def figure_paths(s: FigureSettings) -> tuple[str, str, str]:
+    """The files ``figure`` writes: the experiment's JSON and CSV (``<out>/experiment_<tag>.{json,csv}``, written
+    when it is computed) and the figure's PNG (``<out>/fig<N>_<tag>.png``). All three are checked before any
+    work, even the two a stored experiment spares."""
+    data = cache.experiment_path(s.out, s.experiment)
+    return data, data[:-len(".json")] + ".csv", os.path.join(s.out, f"fig{s.figure.replace('.', '_')}_"
+                                                                     f"{s.experiment.tag}.png")
+
+
+def gaps_path(s: GapsSettings) -> str:
+    """The JSON file ``gaps`` writes: ``<out>/gaps_n<nodes>_g<graphs>.json``."""
+    return os.path.join(s.out, f"gaps_n{s.nodes}_g{s.graphs}.json")
 
 
 def plan_path(s: PlanSettings) -> str:
@@ -292,14 +309,13 @@ def run_figure(s: FigureSettings) -> int:
     if s.cache:
         enable_compilation_cache()
     alphas = list(s.experiment.alphas)
-    data_path = cache.experiment_path(s.out, s.experiment)
+    data_path, csv_path, png = figure_paths(s)
     stored = None if s.force else cache.stored_experiment(data_path, s.experiment, warn=_warn)
     files = {}
     if stored is None:
         stored = cache.compute_experiment(s.experiment, workers=s.workers, xla_cache=s.cache, quiet=s.quiet)
         files[data_path] = json_text({**stored, "provenance": provenance()}, indent=None)
-        files[data_path[:-5] + ".csv"] = rows_csv(stored["rows"])
-    png = os.path.join(s.out, f"fig{s.figure.replace('.', '_')}_{s.experiment.tag}.png")
+        files[csv_path] = rows_csv(stored["rows"])
     buf = io.BytesIO()
     draw_curves(stored["rows"], alphas, BUILDERS, s.figure).savefig(buf, format="png", dpi=80)
     files[png] = buf.getvalue()
@@ -322,7 +338,7 @@ def run_gaps(s: GapsSettings) -> int:
     rows = optimality_gaps(gap_graphs(s.graphs, s.nodes, s.size, list(s.alphas), s.base, s.seed), quiet=s.quiet)
     out = {"config": {"graphs": s.graphs, "nodes": s.nodes, "size": s.size, "alphas": list(s.alphas),
                       "base": s.base, "seed": s.seed}, "rows": rows, "provenance": provenance()}
-    atomic_write(os.path.join(s.out, f"gaps_n{s.nodes}_g{s.graphs}.json"), json_text(out, indent=1))
+    atomic_write(gaps_path(s), json_text(out, indent=1))
     for r in rows:
         if r["mean_ratio"] is None:
             print(f"{r['clustering']:>3} {r['builder']:>3}: n/a ({r['undefined']})")

@@ -22,10 +22,9 @@ from jaxdc.agents.a2c import A2CConfig
 from jaxdc.cli.args import nonnegative_float, positive_float, positive_int, seed, seed_list, unit_interval
 from jaxdc.cli.cluster import add_cluster_arguments, cluster
 from jaxdc.core.energy import MAX_FINITE_ENERGY
-from jaxdc.io import check_output_folder
 from jaxdc.training import presets
 from jaxdc.training.fields import dest, flag, number_text
-from jaxdc.training.loop import LAYOUTS, RunControl
+from jaxdc.training.loop import LAYOUTS, RunControl, check_run_folder
 
 #: Exit status of a run stopped by a NaN loss.
 EXIT_NAN = 3
@@ -274,17 +273,16 @@ def training_energy(name: str) -> Callable[[str], float]:
 
 def run_outputs(out: str) -> list[str]:
     """The files and folders of run folder ``out`` that a run writes and a resume reads."""
-    return [os.path.join(out, name) for name in ("config.json", "metrics.csv", "checkpoints")]
+    return [os.path.join(out, name) for name in ("config.json", "provenance.json", "metrics.csv", "checkpoints")]
 
 
-def check_outputs(out: str, tensorboard: bool = False, config: str | None = None, resume: bool = False) -> None:
-    """Refuse, before any work, a run folder (and its ``tb/``) that cannot be created or written, or whose
-    ``config.json`` (written by a fresh run) or ``metrics.csv`` is the ``--config`` file ``config``."""
-    inputs = {"--config": config_file(config)}
-    check_output_folder(out, "--out", files=("metrics.csv",) if resume else ("config.json", "metrics.csv"),
-                        inputs=inputs)
-    if tensorboard:
-        check_output_folder(os.path.join(out, "tb"), "--tensorboard folder")
+def check_outputs(control: RunControl, config: str | None = None) -> None:
+    """Refuse, before any work, a run folder that cannot be created or written, a file the run writes into it
+    that cannot be written (``config.json`` and ``provenance.json`` of a fresh run, the metrics CSVs: a folder or
+    a dangling symbolic link at the name) or is the ``--config`` file ``config``, and a ``checkpoints/`` or
+    ``tb/`` that is a file, a dangling symbolic link or a link out of the run folder
+    (:func:`jaxdc.training.loop.check_run_folder`)."""
+    check_run_folder(control, "--out", inputs={"--config": config_file(config)})
 
 
 def fmt(x: float | None, spec: str = ".3f") -> str:
@@ -318,7 +316,7 @@ def train_from_command_line(parser: argparse.ArgumentParser, argv: list[str] | N
         return None
     try:
         settings, control = settle(args)
-        check_outputs(control.out, control.tensorboard, getattr(args, "config", None), control.resume)
+        check_outputs(control, getattr(args, "config", None))
         if check_more is not None:
             check_more(args)
         distributed.initialize(cluster(args))  # before any JAX computation

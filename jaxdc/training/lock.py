@@ -10,6 +10,12 @@ ends normally, with an error, with Ctrl-C or SIGTERM removes the file
 at interpreter exit). Within one process the lock is shared: the run objects
 of one folder (e.g. one built to restore a checkpoint while another trains
 it) count their holds. POSIX only (``fcntl``), as the training runs.
+
+The lock is taken on the folder's real path (symbolic links resolved: two names of one folder share one lock)
+and covers what lies inside that folder only. So every folder a run writes into must resolve inside its run
+folder: :func:`jaxdc.training.loop.check_run_folder` refuses, before the lock is taken, a ``checkpoints/`` (or
+``tb/``) that is a symbolic link out of it, e.g. to another run's ``checkpoints/``, where a resume would delete
+and rewrite the checkpoints of a run that another process may hold locked.
 """
 
 from __future__ import annotations

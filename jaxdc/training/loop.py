@@ -145,6 +145,47 @@ def csv_paths(control: RunControl) -> list[tuple[str, str]]:
             for s in control.seeds]
 
 
+#: The files a fresh run writes into its run folder besides the metrics (a resume writes neither).
+FRESH_FILES = ("config.json", "provenance.json")
+
+
+def run_folders(control: RunControl) -> list[tuple[str, str]]:
+    """``(what, folder)`` of the folders a run writes inside its run folder: ``checkpoints/`` and, with
+    ``tensorboard``, ``tb/`` (and ``tb/sSEED`` per seed)."""
+    folders = [("checkpoints folder", control.ckpt_dir)]
+    if control.tensorboard:
+        tbs = [tb for _, tb in csv_paths(control)]
+        tbs = dict.fromkeys([os.path.join(control.out, "tb"), *tbs])  # tb/, then tb/sSEED with several seeds
+        folders += [("tensorboard folder (--tensorboard)", tb) for tb in tbs]
+    return folders
+
+
+def check_run_folder(control: RunControl, what: str = "run folder", inputs: Any = None) -> None:
+    """Refuse, before any work (``ValueError`` naming the path and the reason), a run folder whose outputs cannot
+    be written or must not be: the folder itself (:func:`jaxdc.io.check_output_folder`), each file the run writes
+    into it (``config.json`` and ``provenance.json`` of a fresh run, the metrics CSVs: no folder or dangling
+    symbolic link at the name, none of the command's ``inputs``), and each folder it writes inside it
+    (:func:`run_folders`: a file or a dangling symbolic link at the name is refused).
+
+    One run per folder: the lock (:mod:`jaxdc.training.lock`) covers the run folder only, so every folder a run
+    writes into must resolve inside it. A ``checkpoints/`` (or ``tb/``) that is a symbolic link to a folder
+    outside the run folder, e.g. to another run's ``checkpoints/``, is refused: a resume there would delete and
+    rewrite the checkpoints of a run that another process may be training. (A link to a folder inside the run
+    folder is fine.)"""
+    out = control.out
+    names = [] if control.resume else list(FRESH_FILES)
+    names += [os.path.basename(csv_path) for csv_path, _ in csv_paths(control)]
+    check_output_folder(out, what, files=names, inputs=inputs)
+    top = os.path.realpath(out)
+    for name, folder in run_folders(control):
+        check_output_folder(folder, f"{what}'s {name}")
+        real = os.path.realpath(folder)
+        if not real.startswith(top.rstrip(os.sep) + os.sep):
+            raise ValueError(f"{what}'s {name} {folder!r} resolves to {real!r}, outside the run folder {out!r} "
+                             "(a symbolic link): the run folder's lock would not cover it; remove the link or "
+                             f"choose another {what}")
+
+
 #: A rollout's observations are held as transitions, then as the network's input and its gradient: about this
 #: many copies of ``seeds * num_envs * t_max`` observations are alive at once during an update.
 BATCH_COPIES = 4
@@ -185,8 +226,10 @@ class TrainingRun:
         self.final_state: Any = None
 
     def claim(self, control: RunControl, metadata: dict) -> None:
-        """Lock the run folder and check a resume (:func:`jaxdc.training.guards.claim`): a refusal comes at once."""
+        """Check the run folder's outputs (:func:`check_run_folder`), lock it and check a resume
+        (:func:`jaxdc.training.guards.claim`): a refusal comes at once."""
         if self._lock is None or not self._lock.held:
+            check_run_folder(control)  # before the lock: a refused folder is left as it was
             self._lock = guards.claim(control, metadata, [p for p, _ in csv_paths(control)], primary=is_primary())
 
     # the pieces, by name
@@ -245,7 +288,7 @@ class TrainingRun:
     # -- state --------------------------------------------------------------------------
     def initial_state(self) -> Any:
         """A fresh state (writes ``config.json``), or with ``resume`` the latest checkpoint's."""
-        check_output_folder(self.out, "output folder")
+        check_run_folder(self.control, "output folder")
         if is_primary():  # with several processes, only process 0 writes
             os.makedirs(self.out, exist_ok=True)
         state = self.trainer.init(self.init_key())
@@ -255,9 +298,10 @@ class TrainingRun:
                 raise SettingError(f"{SettingError.text(self.ckpt_dir)} already holds checkpoints {existing}; "
                                    "pass {0} to continue or choose another {1}", "resume", "out")
             if is_primary():  # with several processes, only process 0 writes
-                with checkpoint.writing(self.out):
-                    atomic_write_json(os.path.join(self.out, "config.json"), self.metadata)
-                    atomic_write_json(os.path.join(self.out, "provenance.json"), provenance())
+                for name, record in zip(FRESH_FILES, (self.metadata, provenance())):
+                    path = os.path.join(self.out, name)
+                    with checkpoint.writing(path):  # an error names the file, not the folder
+                        atomic_write_json(path, record)
             return state
         return self.place(guards.resume(self.control, parallel.host(state), self.metadata, primary=is_primary()))
 

@@ -264,3 +264,90 @@ def test_figure_over_a_network_of_nets_dir_refused(capsys, tmp_path, tiny):
     (tmp_path / "img" / "dcg_fig5_6.png").symlink_to(tiny)
     _refused(capsys, ["figure", "5.6", "--nets-dir", nets, "--out", str(tmp_path / "o"), "--img",
                       str(tmp_path / "img"), "--cache", str(tmp_path / "c")], "would overwrite the input --nets-dir")
+
+
+# -- a result file no write can create: refused before any game ---------------------------------------------
+def _block(path, how, target=None):
+    if how == "folder":
+        os.makedirs(path)
+    elif how == "dangling link":
+        os.symlink(os.path.join(os.path.dirname(path), "nowhere", "x"), path)
+    else:
+        os.symlink(target, path)
+
+
+def _no_play(monkeypatch):
+    """Fail the test if a game is played or searched: the refusals below come before any."""
+    def play(*args, **kwargs):
+        raise AssertionError("a game was played before the refusal")
+
+    for name in ("evaluate", "evaluate_learned_team", "play_episode"):
+        monkeypatch.setattr(cli, name, play)
+    monkeypatch.setattr(cli.optimum, "sampled_bound", play)
+    monkeypatch.setattr(cli.optimum, "team_bound", play)
+
+
+@pytest.mark.parametrize("name, argv", [
+    ("eval_vnn_e15_standard_s0.json", []),
+    ("eval_vnn_einf_standard_greedy_mask-reach_base_s0.json", ["--energy", "inf", "--greedy", "--mask",
+                                                               "reach_base"]),
+    ("team_vnn_k2_e15_standard_s0.json", ["--collectors", "2"]),
+])
+@pytest.mark.parametrize("how", ["folder", "dangling link", "link to the checkpoint"])
+def test_evaluate_result_file_blocked_refused_before_playing(capsys, tmp_path, tiny, monkeypatch, name, argv, how):
+    """The result's name is fixed by the network and the settings: a folder or a dangling link at it, or a link to
+    the input checkpoint, is refused before any game is played (not after all of them)."""
+    out = tmp_path / "o"
+    out.mkdir()
+    _block(str(out / name), how, tiny)
+    _no_play(monkeypatch)
+    before = open(tiny, "rb").read()
+    _refused(capsys, ["--checkpoint", tiny, "--episodes", "3", "--out", str(out), *argv], "--out file", name)
+    assert os.listdir(out) == [name] and open(tiny, "rb").read() == before
+
+
+@pytest.mark.parametrize("argv", [["--energy", "7", "--greedy", "--strategies", "patrol"], ["--collectors", "2"],
+                                  ["--reward-area", "1", "--no-bound", "--mask", "reach_base"]])
+def test_evaluate_checks_the_file_it_writes(capsys, tmp_path, tiny, monkeypatch, argv):
+    """The name checked before the games is the name the results give: one check, the file written."""
+    checked = []
+    real = cli.check_output_path
+    monkeypatch.setattr(cli, "check_output_path", lambda path, *a: checked.append(path) or real(path, *a))
+    out = tmp_path / "o"
+    assert cli.main(["--checkpoint", tiny, "--episodes", "2", "--out", str(out), "--json", *argv]) == 0
+    capsys.readouterr()
+    assert len(checked) == 1 and os.listdir(out) == [os.path.basename(checked[0])]
+
+
+OPTIMUM = ["optimum", "--episodes", "10", "--grid-size", "3", "--total-reward", "2", "--energy", "6", "--max-steps",
+           "10", "--no-progress"]
+
+
+@pytest.mark.parametrize("how", ["folder", "dangling link"])
+def test_optimum_result_file_blocked_refused_before_the_search(capsys, tmp_path, monkeypatch, how):
+    out = tmp_path / "o"
+    out.mkdir()
+    _block(str(out / "optimum_4f4770a9.json"), how)
+    _no_play(monkeypatch)
+    _refused(capsys, OPTIMUM + ["--out", str(out)], "--out file", "optimum_4f4770a9.json")
+    assert os.listdir(out) == ["optimum_4f4770a9.json"]
+
+
+@pytest.mark.parametrize("argv", [[], ["--collectors", "2", "--energy", "inf"]])
+def test_optimum_checks_the_file_it_writes(capsys, tmp_path, argv):
+    out = tmp_path / "o"
+    args = cli.build_parser().parse_args(OPTIMUM + ["--episodes", "3", "--out", str(out), *argv])
+    settings = cli.optimum.OptimumSettings.from_args(args)
+    expected = cli.optimum.result_path(settings, DCG(**settings.game))
+    assert cli.main(OPTIMUM + ["--episodes", "3", "--out", str(out), "--json", *argv]) == 0
+    capsys.readouterr()
+    assert os.listdir(out) == [os.path.basename(expected)]
+
+
+def test_render_result_file_blocked_refused_before_playing(capsys, tmp_path, tiny, monkeypatch):
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "dcg_vnn_patrol_s0.gif").mkdir()
+    _no_play(monkeypatch)
+    _refused(capsys, ["render", "--strategy", "patrol", "--checkpoint", tiny, "--out", str(out)], "--out file",
+             "dcg_vnn_patrol_s0.gif", "is a folder")

@@ -274,3 +274,58 @@ def test_plan_draw_over_the_graph_refused(tmp_path, capsys):
     _refused(["--out", str(tmp_path / "o"), "plan", "--graph", str(graph)], capsys, "--out file",
              "would overwrite the input --graph")
     assert graph.read_text() == before
+
+
+# ----------------------------------------------------------------------------- a file no write can create
+
+
+def _settings(argv):
+    return cli.settle(cli.build_parser().parse_args(argv))
+
+
+@pytest.mark.parametrize("which", [0, 1, 2])  # the experiment's JSON, its CSV, the figure's PNG
+@pytest.mark.parametrize("how", ["folder", "dangling link"])
+def test_figure_files_blocked_are_refused_before_work(tmp_path, capsys, monkeypatch, which, how):
+    """Every file ``figure`` writes is checked before the experiment runs (not after it, with a traceback)."""
+    monkeypatch.setattr(cache, "compute_experiment", lambda *a, **k: pytest.fail("work started"))
+    out = tmp_path / "o"
+    out.mkdir()
+    argv = ["--out", str(out), "figure", "3.1", "--graphs", "2", "--nodes", "5", "--quiet", "--workers", "1"]
+    path = cli.figure_paths(_settings(argv))[which]
+    if how == "folder":
+        os.mkdir(path)
+    else:
+        os.symlink(str(tmp_path / "nowhere" / "x"), path)
+    _refused(argv, capsys, "--out file", os.path.basename(path))
+    assert os.listdir(out) == [os.path.basename(path)]
+
+
+@pytest.mark.parametrize("how", ["folder", "dangling link"])
+def test_gaps_file_blocked_is_refused_before_work(tmp_path, capsys, monkeypatch, how):
+    import jaxdc.drp.analysis.gaps as gaps
+
+    monkeypatch.setattr(gaps, "optimality_gaps", lambda *a, **k: pytest.fail("work started"))
+    out = tmp_path / "o"
+    out.mkdir()
+    path = out / "gaps_n3_g2.json"
+    if how == "folder":
+        path.mkdir()
+    else:
+        path.symlink_to(tmp_path / "nowhere" / "x")
+    _refused(["--out", str(out), "gaps", "--graphs", "2", "--nodes", "3", "--quiet"], capsys, "--out file",
+             "gaps_n3_g2.json")
+    assert os.listdir(out) == ["gaps_n3_g2.json"]
+
+
+def test_figure_and_gaps_write_the_files_checked(tmp_path, capsys, monkeypatch):
+    """The names checked before the work are the names written."""
+    monkeypatch.setattr(cache, "compute_experiment", _fake_record)
+    out = tmp_path / "o"
+    argv = ["--out", str(out), "figure", "3.1", "--graphs", "2", "--nodes", "5", "--quiet", "--workers", "1"]
+    assert cli.main(argv) == 0
+    assert sorted(os.listdir(out)) == sorted(os.path.basename(p) for p in cli.figure_paths(_settings(argv)))
+    argv = ["--out", str(tmp_path / "g"), "gaps", "--graphs", "2", "--nodes", "3", "--quiet"]
+    assert cli.main(argv) == 0
+    capsys.readouterr()
+    assert os.listdir(tmp_path / "g") == [os.path.basename(cli.gaps_path(_settings(argv)))]
+

@@ -221,3 +221,70 @@ def test_config_file_in_the_run_folder_refused(tmp_path, capsys, as_folder):
     refused(train_dcp.main, ["--config", config, "--out", str(folder), "--no-progress"], capsys,
             "config.json", "would overwrite the input --config")
     assert (folder / "config.json").read_text() == text
+
+
+# ----------------------------------------------------------------------------- a run folder's fixed names
+
+
+def _no_build(monkeypatch):
+    """Fail the test if a run builds its trainer: the refusals below come before any work."""
+    def build(*args, **kwargs):
+        raise AssertionError("the trainer was built before the refusal")
+
+    monkeypatch.setattr(a2c, "make_train", build)
+
+
+def _block(path, how):
+    if how == "dangling link":
+        os.symlink(os.path.join(os.path.dirname(path), "nowhere", "x"), path)
+    elif how == "file":
+        with open(path, "w") as f:
+            f.write("x")
+    else:
+        os.mkdir(path)
+
+
+@pytest.mark.parametrize("cli, argv", [(train_dcp, TINY), (train_dcg, DCG)], ids=["dcp", "dcg"])
+@pytest.mark.parametrize("name, how, needles", [
+    ("checkpoints", "dangling link", ["--out's checkpoints folder", "symbolic link", "does not exist"]),
+    ("checkpoints", "file", ["--out's checkpoints folder", "is a file, not a folder"]),
+    ("provenance.json", "folder", ["--out file", "provenance.json", "is a folder, not a file"]),
+    ("config.json", "dangling link", ["--out file", "config.json", "does not exist"]),
+    ("metrics.csv", "folder", ["--out file", "metrics.csv", "is a folder, not a file"]),
+])
+def test_a_blocked_name_in_the_run_folder_is_refused_before_any_work(cli, argv, name, how, needles, tmp_path,
+                                                                    capsys, monkeypatch):
+    """A name the run writes into its folder that no write can create (a checkpoints/ that is a file or a dangling
+    link, a folder at provenance.json) is refused before the trainer is built, naming it: the run would train to
+    the end and lose it all at the first write. Nothing is written."""
+    out = tmp_path / "run"
+    out.mkdir()
+    _block(str(out / name), how)
+    _no_build(monkeypatch)
+    t0 = time.monotonic()
+    refused(cli.main, argv + ["--out", str(out)], capsys, str(out / name), *needles)
+    assert time.monotonic() - t0 < 30
+    assert os.listdir(out) == [name]
+
+
+def test_a_blocked_metrics_file_of_one_seed_is_refused(tmp_path, capsys, monkeypatch):
+    """With several seeds each writes its own metrics-sSEED.csv: each name is checked."""
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "metrics-s1.csv").mkdir()
+    _no_build(monkeypatch)
+    refused(train_dcp.main, TINY + ["--seeds", "0,1", "--out", str(out)], capsys,
+            str(out / "metrics-s1.csv"), "is a folder, not a file")
+    assert os.listdir(out) == ["metrics-s1.csv"]
+
+
+def test_a_tensorboard_folder_linked_out_of_the_run_folder_is_refused(tmp_path, capsys, monkeypatch):
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "tb").symlink_to(elsewhere)
+    _no_build(monkeypatch)
+    refused(train_dcp.main, TINY + ["--tensorboard", "--out", str(out)], capsys, "--tensorboard", str(out / "tb"),
+            "outside the run folder")
+    assert os.listdir(elsewhere) == [] and os.listdir(out) == ["tb"]

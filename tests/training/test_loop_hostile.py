@@ -191,3 +191,34 @@ def test_a_full_disk_at_a_checkpoint_is_one_line_and_leaves_no_partial_folder(tm
     os.makedirs(os.path.join(out, "checkpoints", "4.orbax-checkpoint-tmp-1234", "state"))
     assert train_dcp.main(TINY + ["--out", out]) == 0
     assert sorted(os.listdir(os.path.join(out, "checkpoints"))) == ["4", "8"]
+
+
+# -- one run per folder: a checkpoints/ linked into another run ----------------------------------------
+
+
+def test_a_checkpoints_folder_linked_into_another_run_is_refused(finished, tmp_path, monkeypatch, capsys):
+    """runD/checkpoints -> runC/checkpoints: the lock of runD does not cover runC, where a live run may train, so a
+    resume into runD (which deletes the later checkpoints and writes new ones) and a fresh run are refused before
+    any work, naming the link; runC is left as it was."""
+    run_c = _copy(finished, tmp_path, "runC")
+    run_d = tmp_path / "runD"
+    run_d.mkdir()
+    shutil.copy(os.path.join(run_c, "metrics.csv"), run_d / "metrics.csv")
+    (run_d / "checkpoints").symlink_to(os.path.join(run_c, "checkpoints"))
+    before = sorted(os.listdir(os.path.join(run_c, "checkpoints")))
+    _no_build(monkeypatch)
+    for extra in (["--resume", "--resume-step", "4"], ["--resume"], []):
+        refused(train_dcp.main, TINY + ["--out", str(run_d), *extra], capsys, str(run_d / "checkpoints"),
+                "outside the run folder", "lock")
+    assert sorted(os.listdir(os.path.join(run_c, "checkpoints"))) == before == ["4", "8"]
+    assert sorted(os.listdir(run_d)) == ["checkpoints", "metrics.csv"]
+
+
+def test_a_checkpoints_link_inside_the_run_folder_is_fine(finished, tmp_path, capsys):
+    """The rule is where the folder resolves: a checkpoints/ linked to a folder inside the run folder is covered by
+    its lock and resumes (here: a finished run, nothing to train)."""
+    out = _copy(finished, tmp_path)
+    os.rename(os.path.join(out, "checkpoints"), os.path.join(out, "store"))
+    os.symlink("store", os.path.join(out, "checkpoints"))
+    assert train_dcp.main(TINY + ["--out", out, "--resume"]) == 0
+    assert "already finished" in capsys.readouterr().err
