@@ -136,6 +136,19 @@ def test_the_harder_tilted_collector_records_its_recipe_seed_and_start():
     assert "--seed 6" in " ".join(ship.train_command("omn_conn_general_tilt3", 0, 0, "runs"))
 
 
+def test_the_tilt4_collector_records_its_recipe_seed_and_start():
+    """omn_conn_general_tilt4: omn_conn_general_tilt3 trained on with energy_tilt 4 under its mask, from the shipped
+    file, with the seed of its preset."""
+    settings, _ = settle(cli, "dcg", ["--config", "omn_conn_general_tilt4"])
+    assert settings.init_from == "omn_conn_general_tilt3" and settings.mask == "reach_base_or_item"
+    assert settings.energy_tilt == 4.0 and settings.config.total_steps == 6_000_000 and settings.config.lr == 1e-4
+    learned = learned_lib.shipped("omn_conn_general_tilt4")
+    assert learned.mask == "reach_base_or_item" and learned.metadata["seed"] == 7
+    assert learned.metadata["init_sha256"] == digest(learned_lib.shipped("omn_conn_general_tilt3").params)
+    assert learned.metadata["algorithm"] == dataclasses.asdict(settings.config)
+    assert "--seed 7" in " ".join(ship.train_command("omn_conn_general_tilt4", 0, 0, "runs"))
+
+
 @pytest.mark.parametrize("argv, match", [
     (["--energy-range", "8", "3"], "energy_range: low (8) must not exceed high (3)"),
     (["--energy-range", "8.5", "12"], "energy_range low must be a whole number, got 8.5"),
