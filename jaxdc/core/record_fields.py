@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Collection
+from typing import Any
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
-def key_path(at: str, key) -> str:
+def key_path(at: str, key: Any) -> str:
     """``at`` followed by ``key``: ``rows[3]`` for an index, ``rows[3].builder`` for a name, ``results['VNN a']``
     for any other key."""
     if isinstance(key, int):
@@ -24,7 +26,7 @@ def key_path(at: str, key) -> str:
     return f"{at}[{str(key)!r}]"
 
 
-def _short(value) -> str:
+def _short(value: Any) -> str:
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
@@ -33,7 +35,7 @@ class Fields:
     """The checks of one stored file ``file``; a failed check raises ``ValueError`` naming the file and the key
     path, followed by ``hint`` (e.g. ``"delete it or pass --force"``)."""
 
-    def __init__(self, file: str, hint: str = ""):
+    def __init__(self, file: str, hint: str = "") -> None:
         self.file = file
         self.hint = hint
 
@@ -42,26 +44,27 @@ class Fields:
         tail = f"; {self.hint}" if self.hint else ""
         return ValueError(f"{self.file}: {at + ' ' if at else ''}{problem}{tail}")
 
-    def obj(self, value, at: str = "") -> dict:
+    def obj(self, value: Any, at: str = "") -> dict:
         """``value`` if it is a JSON object."""
         if not isinstance(value, dict):
             raise self.error(at or "the file", f"must be a JSON object, got {_short(value)}"
                              if at else "must hold a JSON object")
         return value
 
-    def items(self, value, at: str) -> list:
+    def items(self, value: Any, at: str) -> list:
         """``value`` if it is a JSON array."""
         if not isinstance(value, list):
             raise self.error(at, f"must be a list, got {_short(value)}")
         return value
 
-    def get(self, record: dict, key: str, at: str = ""):
+    def get(self, record: dict, key: str, at: str = "") -> Any:
         """``record[key]`` (``record`` is the object at ``at``); missing: an error."""
         if key not in record:
             raise self.error(key_path(at, key), "is missing")
         return record[key]
 
-    def number(self, value, at: str, *, optional: bool = False, integer: bool = False, minimum=None):
+    def number(self, value: Any, at: str, *, optional: bool = False, integer: bool = False,
+               minimum: float | None = None) -> Any:
         """``value`` if it is a finite number (an integer when ``integer``; at least ``minimum``); ``None`` too
         when ``optional``."""
         if value is None and optional:
@@ -74,7 +77,8 @@ class Fields:
             raise self.error(at, f"must be at least {minimum}, got {_short(value)}")
         return value
 
-    def text(self, value, at: str, *, optional: bool = False, choices=None) -> str | None:
+    def text(self, value: Any, at: str, *, optional: bool = False,
+             choices: Collection[str] | None = None) -> str | None:
         """``value`` if it is a string (one of ``choices`` when given); ``None`` too when ``optional``."""
         if value is None and optional:
             return None
@@ -84,7 +88,7 @@ class Fields:
             raise self.error(at, f"must be one of {', '.join(map(repr, choices))}, got {_short(value)}")
         return value
 
-    def flag(self, value, at: str) -> bool:
+    def flag(self, value: Any, at: str) -> bool:
         """``value`` if it is ``true`` or ``false``."""
         if not isinstance(value, bool):
             raise self.error(at, f"must be true or false, got {_short(value)}")
@@ -99,14 +103,14 @@ class Fields:
         return self.items(self.get(record, key, at), key_path(at, key))
 
     def get_number(self, record: dict, key: str, at: str = "", *, optional: bool = False, absent: bool = False,
-                   **kw):
+                   **kw: Any) -> Any:
         """``record[key]`` checked by :meth:`number`; ``absent``: the key may be left out (``None``)."""
         if absent and key not in record:
             return None
         return self.number(self.get(record, key, at), key_path(at, key), optional=optional, **kw)
 
     def get_text(self, record: dict, key: str, at: str = "", *, optional: bool = False, absent: bool = False,
-                 **kw):
+                 **kw: Any) -> str | None:
         if absent and key not in record:
             return None
         return self.text(self.get(record, key, at), key_path(at, key), optional=optional, **kw)

@@ -155,7 +155,7 @@ def run_folders(control: RunControl) -> list[tuple[str, str]]:
     folders = [("checkpoints folder", control.ckpt_dir)]
     if control.tensorboard:
         tbs = [tb for _, tb in csv_paths(control)]
-        tbs = dict.fromkeys([os.path.join(control.out, "tb"), *tbs])  # tb/, then tb/sSEED with several seeds
+        tbs = list(dict.fromkeys([os.path.join(control.out, "tb"), *tbs]))  # tb/, then tb/sSEED with several seeds
         folders += [("tensorboard folder (--tensorboard)", tb) for tb in tbs]
     return folders
 

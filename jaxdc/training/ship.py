@@ -152,7 +152,8 @@ def failure_line(runs: str, name: str) -> str | None:
     except OSError:
         return None
     errors = [line for line in lines if "error" in line.lower()]
-    return (errors or lines or [None])[-1]
+    found = errors or lines
+    return found[-1] if found else None
 
 
 #: Seconds a child training gets to exit after ``terminate()`` before it is killed.

@@ -89,12 +89,14 @@ def check_params(env: Environment, params: Any) -> Any:
     from jaxdc.dcp.types import EnvParams as DCPParams
 
     if isinstance(params, DCPParams):
-        from jaxdc.dcp.evaluate import check_param_values
-    elif isinstance(params, DCGParams):
-        from jaxdc.dcg.evaluate import check_param_values
-    else:  # another environment's: its own check_params is all there is
-        return params
-    return check_param_values(params)
+        from jaxdc.dcp.evaluate import check_param_values as check_dcp
+
+        return check_dcp(params)
+    if isinstance(params, DCGParams):
+        from jaxdc.dcg.evaluate import check_param_values as check_dcg
+
+        return check_dcg(params)
+    return params  # another environment's: its own check_params is all there is
 
 
 def host_spaces(env: Environment, params: Any,
