@@ -75,7 +75,8 @@ def algorithm_fields(net: str | None) -> dict:
 
 def check_values(meta: dict, where: str) -> dict:
     """``meta`` if its settings have sensible types and ranges (:data:`COUNTS`, :data:`NONNEGATIVE`, the energy a
-    number > 0 or ``"inf"``); else a ``ValueError`` naming ``where`` and the key."""
+    number > 0 or ``"inf"``, EMNN's ``alpha`` a number >= 0 or null); else a ``ValueError`` naming ``where`` and the
+    key."""
     for key in COUNTS:
         v = meta.get(key)
         if v is not None and (not is_int(v, numpy=False) or v < 1):
@@ -87,9 +88,17 @@ def check_values(meta: dict, where: str) -> dict:
     if "energy" in meta:
         values = meta["energy"] if isinstance(meta["energy"], list) else [meta["energy"]]
         for v in values:
-            ok = v == "inf" or (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0)
-            if not ok:
+            number = isinstance(v, (int, float)) and not isinstance(v, bool)
+            if number and math.isinf(v):  # a JSON number too large for a float (1e400) reads as infinity
+                raise ValueError(f"{where}: metadata energy={meta['energy']!r} holds a number too large for a float "
+                                 "(e.g. 1e400); write the string \"inf\" for no energy limit")
+            if not (v == "inf" or (number and math.isfinite(v) and v > 0)):
                 raise ValueError(f"{where}: metadata energy={meta['energy']!r} must hold numbers > 0 (or \"inf\")")
+    alpha = meta.get("alpha")
+    if alpha is not None and (isinstance(alpha, bool) or not isinstance(alpha, (int, float))
+                              or not math.isfinite(alpha) or alpha < 0):
+        raise ValueError(f"{where}: metadata alpha={alpha!r} must be null or a finite number >= 0 (a JSON number, "
+                         "not a string)")
     return meta
 
 

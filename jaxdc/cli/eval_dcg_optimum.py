@@ -101,7 +101,10 @@ def main(args: argparse.Namespace, command: str) -> int:
                           command=command)
     written = os.path.join(s.out, optimum_name(out, s.episodes))
     if written != path:  # the name the search gives is the one checked; should they ever differ, check it too
-        path = check_output_path(written, "--out file")
+        try:
+            path = check_output_path(written, "--out file")
+        except ValueError as e:
+            args.error(str(e))
     line = json_text(out, indent=None)
     atomic_write_json(path, {**out, "provenance": provenance()})
     if s.json:

@@ -300,6 +300,14 @@ def report_done(result: dict, details: Callable[[dict], str]) -> int:
     return 0
 
 
+def _from_config(message: str, args: argparse.Namespace) -> str:
+    """``message`` naming the ``--config`` file the refused settings may have come from (its values are the
+    parser's defaults, so the flag a message names may be one the user never typed)."""
+    path = config_file(getattr(args, "config", None))
+    return message if path is None or path in message else f"{message} (the settings come from --config {path} " \
+        "and the flags given)"
+
+
 def train_from_command_line(parser: argparse.ArgumentParser, argv: list[str] | None, problem: str,
                             from_metadata: Any, settle: Callable[[argparse.Namespace], tuple[Any, RunControl]],
                             make_run: Callable[[Any, RunControl], Any],
@@ -316,6 +324,11 @@ def train_from_command_line(parser: argparse.ArgumentParser, argv: list[str] | N
         return None
     try:
         settings, control = settle(args)
+    except SettingError as e:
+        parser.error(_from_config(e.render(), args))
+    except (ValueError, TypeError) as e:
+        parser.error(_from_config(str(e), args))
+    try:
         check_outputs(control, getattr(args, "config", None))
         if check_more is not None:
             check_more(args)

@@ -80,7 +80,7 @@ from jaxdc.dcg.opponents import STANDARD_STRATEGIES
 from jaxdc.dcg.team.state import MAX_COLLECTORS
 from jaxdc.io import check_not_input, check_output_path
 from jaxdc.nets.registry import ALGOS
-from jaxdc.training.dcg import NETS, DCGRun, DCGSettings, settings_from_metadata
+from jaxdc.training.dcg import NETS, DCGRun, DCGSettings, make_game, settings_from_metadata
 from jaxdc.training.distributed import is_primary
 
 #: EMNN's default weight of Eq. 5.1 (section 5.5.2).
@@ -165,6 +165,7 @@ def settle(args):
                            energy_range=None if args.energy_range is None else tuple(args.energy_range),
                            energy_tilt=args.energy_tilt, mask=args.mask,
                            collectors=args.collectors, init_from=args.init_from, algo=args.algo)
+    make_game(settings)  # the game's options checked now (strategies, reward area, ...), not when the run builds it
     energy = f"{args.energy:g}" if args.energy_range is None else "{:g}-{:g}".format(*args.energy_range)
     team = ("" if args.collectors == 1 else f"-k{args.collectors}") + ("" if args.algo == "ippo" else f"-{args.algo}")
     out = args.out or os.path.join("runs", f"dcg-{args.net}{team}-e{energy}-s{seed_tag(args)}")

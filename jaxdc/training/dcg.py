@@ -170,15 +170,22 @@ def opponent_accuracy(env: DCG | DCGTeam, env_params: Any, net: Any, params: Any
     return jnp.mean(hits)
 
 
-def make_env(s: DCGSettings) -> tuple[DCG | DCGTeam, Any]:
-    """The DCG of the run (the team game with ``collectors > 1``) and its params; VNN's needs no history planes."""
+def make_game(s: DCGSettings) -> DCG | DCGTeam:
+    """The DCG of the run (the team game with ``collectors > 1``; VNN's needs no history planes). Its construction
+    validates the game's options (strategies, reward area, ...) and starts no JAX computation, so a command line
+    checks them with it before ``jax.distributed`` is initialised."""
     history_net = s.net != "vnn"
     options: dict[str, Any] = dict(grid_size=s.grid_size, total_reward=s.total_reward,
                                    strategies=",".join(s.strategies),
                                    history=s.history if history_net else 1, obs_history=history_net,
                                    reward_area=s.reward_area, min_reward_area=s.min_reward_area,
                                    observation=s.observation)
-    env = DCG(**options) if s.collectors == 1 else DCGTeam(collectors=s.collectors, **options)
+    return DCG(**options) if s.collectors == 1 else DCGTeam(collectors=s.collectors, **options)
+
+
+def make_env(s: DCGSettings) -> tuple[DCG | DCGTeam, Any]:
+    """The DCG of the run (:func:`make_game`) and its params."""
+    env = make_game(s)
     return env, env.make_params(energy=s.energy, max_steps=s.max_steps, energy_range=s.energy_range,
                                 energy_tilt=s.energy_tilt)
 

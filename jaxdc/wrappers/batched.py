@@ -21,10 +21,11 @@ import jax
 import numpy as np
 from gymnasium import spaces
 
+from jaxdc.core import memory
 from jaxdc.core.env import Environment
 
 __all__ = ["reset_one", "step_one", "reset", "step", "host_spaces", "RESET_OPTIONS", "check_reset_options",
-           "check_params"]
+           "check_params", "BATCH_COPIES", "check_batch_fits"]
 
 #: The reset options the adapters take: none (the environment's parameters are set with ``params=...``).
 RESET_OPTIONS: tuple[str, ...] = ()
@@ -97,6 +98,20 @@ def check_params(env: Environment, params: Any) -> Any:
 
         return check_dcg(params)
     return params  # another environment's: its own check_params is all there is
+
+
+#: A vector adapter holds about this many copies of a batch's observations and states: the device state and
+#: observation, the host copies it hands out, and the batched observation space's bounds (two arrays of the
+#: batch's observation shape).
+BATCH_COPIES = 4
+
+
+def check_batch_fits(env: Environment, params: Any, num_envs: int) -> None:
+    """``MemoryError`` naming ``num_envs`` when :data:`BATCH_COPIES` copies of ``num_envs`` observations and states
+    of ``env`` would not fit in memory (:func:`jaxdc.core.memory.check_fits`), before any of them is allocated."""
+    obs, state = jax.eval_shape(env.reset, jax.random.PRNGKey(0), params)
+    per_env = memory.tree_bytes(obs) + memory.tree_bytes(state)
+    memory.check_fits(BATCH_COPIES * int(num_envs) * per_env, f"{num_envs} copies of {env.name}", "num_envs")
 
 
 def host_spaces(env: Environment, params: Any,

@@ -234,6 +234,7 @@ class JaxVectorEnv(_KeyedReset, gymnasium.vector.VectorEnv):
         self.env = env
         self.num_envs = int(num_envs)
         self.params = batched.check_params(env, env.default_params if params is None else params)
+        batched.check_batch_fits(env, self.params, self.num_envs)
         self.single_observation_space, self.single_action_space = batched.host_spaces(env, self.params,
                                                                                       observation_space)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)

@@ -64,6 +64,7 @@ class JaxdcVecEnv(VecEnv):
         self.params = batched.check_params(env, env.default_params if params is None else params)
         self.render_mode = None
         n = check_positive_int("num_envs", num_envs)
+        batched.check_batch_fits(env, self.params, n)
         obs_space, act_space = batched.host_spaces(env, self.params)
         super().__init__(n, obs_space, act_space)
         self._first_seed = None if seed is None else check_seed("seed", seed)
@@ -116,7 +117,10 @@ class JaxdcVecEnv(VecEnv):
     def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
         if self._state is None:
             raise RuntimeError("call reset() before step()")
+        if self._actions is None:
+            raise RuntimeError("step_wait() needs the actions of step_async(actions) first (or call step(actions))")
         out = self._step_fn(self._key, self._state, self._actions, self.params)
+        self._actions = None  # each step_async is consumed by one step_wait
         self._key, obs, self._state, reward, terminated, truncated, info = out
         obs, reward, terminated, truncated, final, ep_reward, ep_steps = jax.device_get(
             (obs, reward, terminated, truncated, info["final_observation"], info["episode_reward"],

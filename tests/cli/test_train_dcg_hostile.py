@@ -7,6 +7,9 @@ interruption leaves the old files or the complete new set.
 
 from __future__ import annotations
 
+import json
+import os
+
 import pytest
 
 from jaxdc.cli import train_dcg
@@ -67,3 +70,31 @@ def test_train_dcg_ship_over_the_run_config_refused(tmp_path, capsys):
     out = tmp_path / "run"
     refused_leaving_no_run(train_dcg.main, DCG + ["--ship", str(out / "config")], out, capsys,
                            "--ship", "config.json", "would overwrite the input --out")
+
+
+# ----------------------------------------------------------------------------- --config FILE: train.dcg
+
+CONFIG = os.path.join(os.path.dirname(__file__), "..", "..", "results", "dcg", "omn_conn_general_tilt4", "config.json")
+
+
+@pytest.mark.parametrize("change, needles", [
+    ({"alpha": "0.001"}, ["alpha='0.001'", "not a string"]),
+    ({"reward_area": 9}, ["reward_area must be between 1 and grid_size (5), got 9"]),
+    ({"strategies": ["patrol", "bogus"]}, ["unknown strategy 'bogus'"]),
+    ({"energy": "1e400"}, ["too large for a float", '"inf"']),
+])
+def test_train_dcg_config_file_refusals_name_the_file(change, needles, tmp_path, capsys):
+    """A run's config.json whose value is refused names the file, also when the refusal comes from the game's own
+    check of a value the user never typed as a flag; a string is no number, and 1e400 is no "inf"."""
+    with open(CONFIG) as f:
+        text = f.read()
+    meta = json.loads(text)
+    meta.update({k: v for k, v in change.items() if k != "energy"})
+    text = json.dumps(meta)
+    if "energy" in change:  # a JSON number too large for a float: Python's json reads it as infinity
+        text = text.replace('"energy": 15.0', f'"energy": {change["energy"]}')
+        assert change["energy"] in text
+    path = tmp_path / "cfg.json"
+    path.write_text(text)
+    refused_leaving_no_run(train_dcg.main, ["--config", str(path), "--steps", "256", "--envs", "4", "--t-max", "8",
+                                            "--no-progress"], tmp_path / "run", capsys, "cfg.json", *needles)

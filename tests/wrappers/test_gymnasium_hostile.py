@@ -95,3 +95,14 @@ def test_gym_make_steps_after_a_refused_first_reset(env_id, bad):
         env.reset(**bad)
     env.reset(seed=0)
     assert len(env.step(0)) == 5
+
+
+@pytest.mark.parametrize("make", [lambda: JaxVectorEnv(DCP(grid_size=4), num_envs=10**9),
+                                  lambda: __import__("gymnasium").make_vec("jaxdc/DCP-v0", num_envs=10**9,
+                                                                           grid_size=4)])
+def test_a_vector_too_large_for_memory_is_refused_before_allocating(make, monkeypatch):
+    """10**9 copies: refused by jaxdc's memory check naming num_envs, before the batched spaces' bounds are allocated
+    (numpy's MemoryError for 477 GiB before)."""
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(64 * 2**20))
+    with pytest.raises(MemoryError, match="num_envs"):
+        make()

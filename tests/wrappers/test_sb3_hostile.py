@@ -93,3 +93,22 @@ def test_set_attr_params_with_bad_values_is_refused(field, value, match):
     assert venv.params is before
     with pytest.raises(ValueError, match=r"params\.max_steps: max_steps must be in \[1, 2147483647\], got 0"):
         JaxdcVecEnv(DCP(grid_size=6), 2, before.replace(max_steps=jnp.int32(0)))
+
+
+def test_step_wait_without_step_async_is_refused():
+    """SB3 pairs step_async(actions) with step_wait(): without actions the step is refused by name, and each
+    step_async serves one step_wait."""
+    venv = _venv()
+    venv.reset()
+    with pytest.raises(RuntimeError, match="step_async"):
+        venv.step_wait()
+    venv.step_async(np.zeros(2, np.int64))
+    venv.step_wait()
+    with pytest.raises(RuntimeError, match="step_async"):
+        venv.step_wait()
+
+
+def test_a_batch_too_large_for_memory_is_refused_before_allocating(monkeypatch):
+    monkeypatch.setenv("JAXDC_MEMORY_LIMIT", str(64 * 2**20))
+    with pytest.raises(MemoryError, match="num_envs"):
+        JaxdcVecEnv(DCP(grid_size=6), num_envs=10**9, seed=0)
