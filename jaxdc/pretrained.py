@@ -377,9 +377,19 @@ def load_trained(path: PathLike, problem: str, nets: Collection[str], restore_ta
         raise ValueError(f"{source} holds the network of seed {meta.get('seed')}, not of run_seed {run_seed}")
     if os.path.isdir(path):
         if not seeds:
-            state, meta = checkpoint.restore(ckpt, restore_target(name, meta, source), {"net": name},
-                                             upgrade=upgrade)
-            check_finite(state.params, source)
+            target = restore_target(name, meta, source)
+            try:
+                state, meta = checkpoint.restore(ckpt, target, {"net": name}, upgrade=upgrade)
+                check_finite(state.params, source)
+            except ValueError as e:  # the latest step is damaged: name the intact ones, as train --resume does
+                latest = checkpoint.latest_step(ckpt)
+                skip = () if latest is None else (latest,)
+                intact = checkpoint.intact_steps(ckpt, target, {"net": name}, upgrade=upgrade, exclude=skip)
+                raise ValueError(f"{e}. " + (
+                    f"Intact checkpoints: steps {intact}; a run folder is read at its latest step, so continue the "
+                    f"run from one (train.{problem} --out {path} --resume --resume-step {intact[-1]}: the later "
+                    "checkpoints are deleted) or use another run" if intact else
+                    "No other checkpoint of the run is intact")) from None
             return name, state.params, dict(meta, problem=problem, updates=checkpoint.latest_step(ckpt)), ckpt
         if run_seed not in seeds:
             raise ValueError(f"{source} holds the runs of seeds {seeds}: choose one with run_seed "

@@ -222,3 +222,13 @@ def test_a_checkpoints_link_inside_the_run_folder_is_fine(finished, tmp_path, ca
     os.symlink("store", os.path.join(out, "checkpoints"))
     assert train_dcp.main(TINY + ["--out", out, "--resume"]) == 0
     assert "already finished" in capsys.readouterr().err
+
+
+def test_init_from_a_run_whose_latest_checkpoint_is_damaged_names_the_intact_steps(finished, tmp_path, monkeypatch,
+                                                                                   capsys):
+    """A run folder is read at its latest step (--init-from, eval --checkpoint): a damaged one is refused with the
+    intact steps and how to continue from one, as --resume does."""
+    out = _copy(finished, tmp_path)
+    _poison(out, 8, "params", monkeypatch)
+    refused(train_dcp.main, TINY + ["--out", str(tmp_path / "next"), "--init-from", out], capsys, "step 8",
+            "Intact checkpoints: steps [4]", "--resume-step 4")

@@ -23,7 +23,7 @@ import os
 from typing import Callable
 
 from jaxdc.core.record_fields import Fields
-from jaxdc.io import atomic_write_json, read_json
+from jaxdc.io import atomic_write_json, check_output_path, read_json
 from jaxdc.provenance import provenance
 
 #: The key of a stored file's provenance, beside the result's own fields (left out by :meth:`EvaluationCache.load`).
@@ -50,13 +50,17 @@ class EvaluationCache:
     def load(self, blob: str | None, settings: dict,
              check: Callable[[Fields, dict], object] | None = None) -> dict | None:
         """The stored result of the same file with the same settings (without its provenance), ``None`` if there
-        is none (or no reuse).
+        is none (or no reuse); then the file :meth:`store` will write must be writable (a folder or a dangling
+        symbolic link at its name is a ``ValueError`` now, before the evaluation).
 
         ``check(fields, result)`` (e.g. :func:`jaxdc.dcg.analysis.records.check_evaluation`) checks the result's
         fields; a damaged one is a ``ValueError`` naming the file and the key, and telling to delete it.
         """
         path = self.path(blob, settings)
         if not self.reuse or not os.path.isfile(path):
+            # the result will be evaluated, then stored here: a folder or a dangling link at the name is refused now,
+            # before the evaluation, not after it
+            check_output_path(path, "cache file")
             return None
         hint = "delete it (or pass --no-cache) to evaluate again"
         stored = read_json(path, hint)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import json
+import os
 
 import pytest
 
@@ -103,3 +104,14 @@ def test_a_damaged_standard_figure_is_refused_naming_file_and_key(tmp_path, edit
     with pytest.raises(ValueError) as e:
         stored_standard(str(tmp_path))
     assert str(e.value).startswith(f"{tmp_path / 'figure_standard.json'}: {key}")
+
+
+@pytest.mark.parametrize("reuse", [True, False])
+def test_a_cache_file_that_cannot_be_written_is_refused_before_the_evaluation(tmp_path, reuse):
+    """The bar's result is stored after its evaluation: a folder at the cache file's name is refused when the cache
+    is asked for it, before the evaluation (also with --no-cache, which still stores)."""
+    cache = EvaluationCache(str(tmp_path / "cache"), reuse=reuse)
+    os.makedirs(cache.path(None, {"game": 1}))
+    with pytest.raises(ValueError, match="cache file .* is a folder"):
+        cache.load(None, {"game": 1}, check_bound)
+    assert cache.load(None, {"game": 2}, check_bound) is None  # a writable name: nothing stored, nothing refused
