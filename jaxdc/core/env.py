@@ -195,6 +195,14 @@ class Environment(Generic[S, P]):
     #: setting, exact for any value >= 1 (set it before the first jitted call: environments are static arguments).
     reset_chunk: int | None = None
 
+    def check_param_values(self, params: P) -> P:
+        """``params`` if their VALUES (not only their shapes) are ones :meth:`make_params` accepts; checked once at a
+        non-jitted entry point (the evaluators, the gymnasium, SB3 and JaxMARL adapters), so that parameters edited
+        with ``.replace(...)`` (a NaN risk, a negative energy) are refused naming the field instead of playing
+        silently. Traced parameters are returned unchecked (:func:`is_traced`). The base class checks none; the DCP
+        and the DCG check theirs (``jaxdc.dcp.param_values``, ``jaxdc.dcg.param_values``)."""
+        return params
+
     # -- public API ---------------------------------------------------------------------
     def reset(self, key: jax.Array, params: P | None = None) -> tuple[jax.Array, S]:
         """Start an episode: ``(obs, state)``. Parameters of another environment (another grid size) are
@@ -366,6 +374,24 @@ def reset_finished(env: Environment, done: jax.Array, chunk_keys: Any, params: A
 
     finished = jnp.sum(done, dtype=jnp.int32)
     return jax.lax.fori_loop(0, (finished + chunk - 1) // chunk, fill, current)
+
+
+def is_traced(tree: Any) -> bool:
+    """Whether a leaf of ``tree`` is a tracer (inside ``jit``/``vmap``), whose values are not known."""
+    return any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(tree))
+
+
+def check_each(params: Any, field: str, check: Any, name: str = "params") -> None:
+    """``check(v)`` for every value ``v`` of the field ``field`` of ``params`` (one per element of a batch, as a
+    Python number); an error is re-raised naming ``name.field``."""
+    a = np.asarray(getattr(params, field))
+    if a.size == 0:
+        raise ValueError(f"{name}.{field} is empty")
+    for v in a.reshape(-1).tolist():
+        try:
+            check(v)
+        except (TypeError, ValueError) as e:
+            raise type(e)(f"{name}.{field}: {e}") from None
 
 
 def tree_select(pred: Any, on_true: Any, on_false: Any) -> Any:

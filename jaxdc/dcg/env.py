@@ -67,6 +67,7 @@ from jaxdc.dcg import opponents as opp_lib
 from jaxdc.dcg import picture
 from jaxdc.dcg.observation import CollectorObservation
 from jaxdc.dcg.opponents import CHASE_TIES, STANDARD_STRATEGIES, OpponentState
+from jaxdc.dcg.param_values import MIN_RANGE_ENERGY, check_param_values
 from jaxdc.dcg.types import CAUGHT, CLEARED, ENERGY, OUTCOMES, RUNNING, TRUNCATED, EnvParams, EnvState
 
 #: Where the opponent starts ("the locations of the opponent and items are randomly selected").
@@ -83,8 +84,6 @@ CAPTURES = ("both", "opponent_moves")
 CAUGHT_ENERGIES = ("charged", "uncharged")
 #: What the collector observes: the thesis' planes, or the ``"general"`` ones that show the episode's budget.
 OBSERVATIONS = ("thesis", "general")
-#: The smallest maximum energy of an ``energy_range``: the smallest whole budget (one step out of the base).
-MIN_RANGE_ENERGY = 1.0
 #: The key of an episode's budget draw is ``fold_in(reset key, ENERGY_STREAM)``: the rest of the reset draws as
 #: without a range, so a range ``(E, E)`` plays the same games as the fixed energy ``E``.
 ENERGY_STREAM = 0x454E
@@ -219,6 +218,11 @@ class DCG(CollectorObservation, Environment[EnvState, EnvParams]):
             + ("" if self.observation == "thesis" else f", observation={self.observation!r}")
             + ")"
         )
+
+    def check_param_values(self, params: EnvParams) -> EnvParams:
+        """``params`` if their values are ones :meth:`make_params` accepts
+        (:func:`jaxdc.dcg.param_values.check_param_values`)."""
+        return check_param_values(params)
 
     def grid_shapes(self) -> tuple[dict[str, tuple[int, ...]], dict[str, tuple[int, ...]]]:
         """The state's grid-shaped fields (the items, the history planes); the parameters have none."""

@@ -30,13 +30,11 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxdc.core.energy import check_budget, check_energy_range, check_energy_tilt
 from jaxdc.core.masks import MASKS, make_mask
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import RPE_ZERO, episode_summary
-from jaxdc.core.validate import INT32_MAX, check_choice, check_int, check_positive_int
-from jaxdc.dcg.env import DCG, MIN_RANGE_ENERGY, OUTCOMES, EnvParams, EnvState
-from jaxdc.dcg.opponents import CHASE_TIES
+from jaxdc.core.validate import check_choice, check_positive_int
+from jaxdc.dcg.env import DCG, OUTCOMES, EnvParams, EnvState
 from jaxdc.dcg.summary import MeanSD, Summary
 
 #: Default number of games (section 5.5.3).
@@ -94,39 +92,6 @@ class Scored:
         return obs, scored, reward, term, trunc, info
 
 
-def check_param_values(params: EnvParams, name: str = "params") -> EnvParams:
-    """``params`` if their VALUES are those :meth:`DCG.make_params` accepts: ``max_energy`` > 0 (finite or ``inf``),
-    ``max_steps`` an int in ``[1, 2**31 - 1]``, ``chase_tie`` an index into
-    :data:`~jaxdc.dcg.opponents.CHASE_TIES`, and, with a drawn budget, ``energy_range`` whole numbers
-    ``1 <= low <= high`` and ``energy_tilt`` in range. Else a ``TypeError``/``ValueError`` naming ``name.<field>``,
-    the value and the allowed range. Traced parameters (inside ``jit``/``vmap``) are returned unchecked; run it
-    once at a non-jitted entry point (params edited with ``.replace(...)`` bypass ``make_params``' checks)."""
-    if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(params)):
-        return params
-
-    def each(field, check):
-        a = np.asarray(getattr(params, field))
-        if a.size == 0:
-            raise ValueError(f"{name}.{field} is empty")
-        for v in a.reshape(-1).tolist():
-            try:
-                check(v)
-            except (TypeError, ValueError) as e:
-                raise type(e)(f"{name}.{field}: {e}") from None
-
-    each("max_energy", lambda v: check_budget("max_energy", v))
-    each("max_steps", lambda v: check_int("max_steps", v, 1, INT32_MAX))
-    each("chase_tie", lambda v: check_int("chase_tie (an index into CHASE_TIES)", v, 0, len(CHASE_TIES) - 1))
-    if params.energy_range is not None:
-        try:
-            check_energy_range(np.asarray(params.energy_range).tolist(), MIN_RANGE_ENERGY)
-        except (TypeError, ValueError) as e:
-            raise type(e)(f"{name}.energy_range: {e}") from None
-    if params.energy_tilt is not None:
-        each("energy_tilt", lambda v: check_energy_tilt(v))
-    return params
-
-
 def with_prediction(policy: Callable, predict: Callable | None = None) -> Callable:
     """``policy(key, obs, state) -> (action, predicted o_t)`` for :class:`Scored`.
 
@@ -169,7 +134,7 @@ def evaluate_policy(env: DCG, params: EnvParams, policy: Callable, key, episodes
     """
     if not isinstance(env, DCG):
         raise TypeError(f"env must be a jaxdc.dcg.env.DCG, got {type(env).__name__}")
-    check_param_values(env.check_params(params))
+    env.check_param_values(env.check_params(params))
     episodes = check_positive_int("episodes", episodes)
     scored = Scored(env)
     play = with_prediction(policy, predict)
@@ -198,7 +163,7 @@ def evaluate_network(env: DCG, params: EnvParams, net, net_params, key, episodes
     """
     if not isinstance(env, DCG):
         raise TypeError(f"env must be a jaxdc.dcg.env.DCG, got {type(env).__name__}")
-    check_param_values(env.check_params(params))
+    env.check_param_values(env.check_params(params))
     episodes = check_positive_int("episodes", episodes)
     check_choice("mask", mask, MASKS)
     return _run_network(env, params, net, net_params, key, bool(greedy), episodes, lanes, mask)

@@ -33,7 +33,6 @@ from jaxdc.core import grid
 from jaxdc.core.energy import (
     ENERGY_METRICS,
     ENERGY_SCALE,
-    check_budget,
     draw_max_energy,
     energy_used,
     observed_energy,
@@ -51,7 +50,8 @@ from jaxdc.core.sampling import (
     uniform_index,
 )
 from jaxdc.core.scene import Scene
-from jaxdc.core.validate import INT32_MAX, check_bool, check_float, check_int, check_positive_int, is_int, value_text
+from jaxdc.core.validate import INT32_MAX, check_bool, check_float, check_int, check_positive_int, is_int
+from jaxdc.dcp.param_values import check_energy, check_param_values
 from jaxdc.dcp.types import CLEARED, ENERGY, IDLE, OUTCOMES, RISK, RUNNING, TRUNCATED, EnvParams, EnvState
 
 #: Where the agent starts (an ambiguity of section 4.3: "the initial locations ... are random").
@@ -197,6 +197,11 @@ class DCP(Environment[EnvState, EnvParams]):
             max_energy=jnp.float32(max_e),
             max_steps=jnp.int32(max_steps),
         )
+
+    def check_param_values(self, params: EnvParams) -> EnvParams:
+        """``params`` if their values are ones :meth:`make_params` accepts
+        (:func:`jaxdc.dcp.param_values.check_param_values`)."""
+        return check_param_values(params)
 
     def grid_shapes(self) -> tuple[dict[str, tuple[int, ...]], dict[str, tuple[int, ...]]]:
         """The grid-shaped fields: the risk map(s) of the parameters, the items and ranks of the state."""
@@ -404,17 +409,3 @@ def render_ansi(state: Any, params: Any) -> str:
     rows.append(status)
     return "\n".join(rows) + "\n"
 
-
-def check_energy(energy: Any) -> tuple[float, float]:
-    """Validate ``(initial, maximum)`` energy: ``0 < initial <= maximum``, each finite (at most
-    :data:`~jaxdc.core.energy.MAX_FINITE_ENERGY`) or ``inf``."""
-    try:
-        init_e, max_e = energy
-    except (TypeError, ValueError):
-        raise TypeError(f"energy must be a pair (initial, maximum) of numbers, got {energy!r}") from None
-    init_e = check_budget("initial energy", init_e)
-    max_e = check_budget("maximum energy", max_e)
-    if init_e > max_e:
-        raise ValueError(f"initial energy ({value_text(init_e)}) must not exceed the maximum energy "
-                         f"({value_text(max_e)})")
-    return init_e, max_e

@@ -15,65 +15,13 @@ from typing import NamedTuple
 import jax
 import numpy as np
 
-from jaxdc.core import grid
-from jaxdc.core.energy import check_energy_tilt
 from jaxdc.core.paths import safest_paths
 from jaxdc.core.rollout import run_episodes
 from jaxdc.core.stats import RPE_ZERO, episode_summary  # noqa: F401  (RPE_ZERO: the public name)
-from jaxdc.core.validate import INT32_MAX, check_choice, check_float, check_int, check_positive_int
+from jaxdc.core.validate import check_choice, check_positive_int
 from jaxdc.dcp import instances, masks, navigators
-from jaxdc.dcp.env import DCP, OUTCOMES, EnvParams, check_energy
+from jaxdc.dcp.env import DCP, OUTCOMES, EnvParams
 from jaxdc.dcp.planners import PlannerConfig
-
-
-def _values(params, field: str, name: str) -> list:
-    """The values of the scalar field ``field`` of ``params`` as Python numbers (one per element of a batch)."""
-    a = np.asarray(getattr(params, field))
-    if a.size == 0:
-        raise ValueError(f"{name}.{field} is empty")
-    return a.reshape(-1).tolist()
-
-
-def check_param_values(params: EnvParams, name: str = "params") -> EnvParams:
-    """``params`` if their VALUES are those :meth:`DCP.make_params` (and :func:`jaxdc.dcp.instances.instance_params`
-    for per-episode instances) accept: the risk map finite in ``[0, 1]`` with base risk 0, the energies
-    ``0 < initial <= maximum`` (each finite or ``inf``), ``max_steps`` an int in ``[1, 2**31 - 1]``, and, with
-    per-episode instances, each map as :func:`jaxdc.dcp.instances.check_maps` accepts, the energy range, tilt
-    and initial fraction in range. Else a ``TypeError``/``ValueError`` naming ``name.<field>``, the value and the
-    allowed range.
-
-    Run once at a non-jitted entry point (the evaluators, the gymnasium and SB3 adapters): the shapes are
-    :meth:`~jaxdc.core.env.Environment.check_params`' business, and traced parameters (inside ``jit``/``vmap``)
-    are returned unchecked (their values are not known there). Params edited with ``.replace(...)`` bypass
-    ``make_params``' checks; this catches them before a NaN risk or a negative energy plays silently."""
-    if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(params)):
-        return params
-
-    def named(field, check):
-        try:
-            return check()
-        except (TypeError, ValueError) as e:
-            raise type(e)(f"{name}.{field}: {e}") from None
-
-    named("risk", lambda: grid.validate_risk_map(np.asarray(params.risk)))
-    inits, maxes = _values(params, "init_energy", name), _values(params, "max_energy", name)
-    if len(inits) != len(maxes):
-        raise ValueError(f"{name}.init_energy has {len(inits)} values but {name}.max_energy {len(maxes)}")
-    for init_e, max_e in zip(inits, maxes):
-        named("init_energy/max_energy", lambda i=init_e, m=max_e: check_energy((i, m)))
-    for v in _values(params, "max_steps", name):
-        named("max_steps", lambda v=v: check_int("max_steps", v, 1, INT32_MAX))
-    if params.maps is not None:
-        named("maps", lambda: instances.check_maps(np.asarray(params.maps), np.asarray(params.risk).shape[-1]))
-    if params.energy_range is not None:
-        named("energy_range", lambda: instances.check_energy_range(np.asarray(params.energy_range).tolist()))
-    if params.energy_tilt is not None:
-        for v in _values(params, "energy_tilt", name):
-            named("energy_tilt", lambda v=v: check_energy_tilt(v))
-    if params.init_fraction is not None:
-        for v in _values(params, "init_fraction", name):
-            named("init_fraction", lambda v=v: check_float("init_fraction", v, 0.0, 1.0, low_open=True))
-    return params
 
 
 def heuristic_policy(name: str, table, cfg: PlannerConfig = PlannerConfig(), max_energy=None):
@@ -110,7 +58,7 @@ def evaluate_heuristic(
     """Final states of ``episodes`` episodes of heuristic policy ``name`` (jitted, batched); with per-episode maps
     (``params.maps``) each episode plans on its own map's table."""
     check_choice("policy", name, navigators.POLICIES)
-    check_param_values(env.check_params(params))
+    env.check_param_values(env.check_params(params))
     if params.maps is not None:
         return _run_instance_heuristic(env, params, key, name, cfg, check_positive_int("episodes", episodes))
     return _run_heuristic(env, params, key, name, cfg, check_positive_int("episodes", episodes), path_risk)
@@ -155,7 +103,7 @@ def evaluate_learned(
     """
     from jaxdc.dcp.learned import EQN_EPSILON, check_params
 
-    check_param_values(env.check_params(params))
+    env.check_param_values(env.check_params(params))
     epsilon = EQN_EPSILON if epsilon is None else float(epsilon)
     if not 0.0 <= epsilon <= 1.0:
         raise ValueError(f"epsilon must be in [0, 1], got {epsilon!r}")
@@ -188,7 +136,7 @@ def evaluate_optimal(env: DCP, params: EnvParams, key, episodes: int = 10_000) -
 
     if env.total_reward != 1:
         raise ValueError(f"policy 'optimal' needs total_reward=1 (the single-item setting), got {env.total_reward}")
-    check_param_values(env.check_params(params))
+    env.check_param_values(env.check_params(params))
     sol = solve_single_item(
         np.asarray(params.risk), float(params.max_energy), float(params.init_energy), grid_size=env.grid_size
     )

@@ -30,13 +30,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxdc.core import grid
-from jaxdc.core.energy import check_energy_range as check_range
 from jaxdc.core.energy import check_energy_tilt
 from jaxdc.core.memory import check_fits
 from jaxdc.core.paths import PathTable, safest_paths
 from jaxdc.core.validate import check_float
 from jaxdc.dcp import navigators
-from jaxdc.dcp.env import DCP, EnvParams, EnvState, check_energy
+from jaxdc.dcp.env import DCP, EnvParams, EnvState
+from jaxdc.dcp.param_values import check_energy, check_energy_range, check_maps
 from jaxdc.dcp.planners import PlannerConfig
 
 #: Maps whose tables are computed in one batched call (bounds the memory of the Dijkstra batch).
@@ -46,29 +46,6 @@ TABLE_CHUNK = 64
 def table_bytes(maps: int, grid_size: int) -> int:
     """Bytes of the safest-path tables of ``maps`` maps: three ``[N^2, N^2]`` 4-byte arrays each."""
     return 12 * maps * grid_size**4
-
-
-def check_maps(maps: Any, grid_size: int) -> np.ndarray:
-    """``maps`` as a validated ``[M, N, N]`` float32 array: each map as :func:`jaxdc.core.grid.validate_risk_map`
-    accepts, and no risk of 1 (a certain loss: the safest paths are then undefined)."""
-    arr = np.asarray(maps, dtype=np.float32) if not isinstance(maps, np.ndarray) else maps.astype(np.float32)
-    if arr.ndim != 3 or arr.shape[0] < 1:
-        raise ValueError(f"maps must be an array [M, N, N] with M >= 1, got shape {arr.shape}")
-    for i in range(arr.shape[0]):
-        try:
-            grid.validate_risk_map(arr[i], grid_size)
-        except (TypeError, ValueError) as e:
-            raise type(e)(f"maps[{i}]: {e}") from None
-    if np.any(arr >= 1.0):
-        i = int(np.argwhere(arr >= 1.0)[0][0])
-        raise ValueError(f"maps[{i}] has a risk of 1; per-episode maps need risks in [0, 1)")
-    return arr
-
-
-def check_energy_range(energy_range: Any) -> tuple[float, float]:
-    """``(low, high)``: integer maximum energies with ``2 <= low <= high`` (finite;
-    :func:`jaxdc.core.energy.check_energy_range`)."""
-    return check_range(energy_range, 2.0)
 
 
 #: The tables of a batch of maps, compiled once per batch shape.

@@ -80,24 +80,12 @@ def step(env: Environment, num_envs: int, key: jax.Array, state: Any, actions: j
 
 def check_params(env: Environment, params: Any) -> Any:
     """``params`` checked once, at an adapter's entry (outside jit): their kind and shapes
-    (:meth:`~jaxdc.core.env.Environment.check_params`), then their VALUES for the DCP's and the DCG's parameters
-    (:func:`jaxdc.dcp.evaluate.check_param_values`, :func:`jaxdc.dcg.evaluate.check_param_values`: risks finite in
-    ``[0, 1]`` with base risk 0, energies > 0 or ``inf``, ``max_steps`` >= 1, ...), so params edited with
-    ``.replace(...)`` (a NaN risk map, an infinite risk) are refused with a ``ValueError`` naming the field
-    instead of playing silently."""
-    params = env.check_params(params)
-    from jaxdc.dcg.types import EnvParams as DCGParams
-    from jaxdc.dcp.types import EnvParams as DCPParams
-
-    if isinstance(params, DCPParams):
-        from jaxdc.dcp.evaluate import check_param_values as check_dcp
-
-        return check_dcp(params)
-    if isinstance(params, DCGParams):
-        from jaxdc.dcg.evaluate import check_param_values as check_dcg
-
-        return check_dcg(params)
-    return params  # another environment's: its own check_params is all there is
+    (:meth:`~jaxdc.core.env.Environment.check_params`), then their values
+    (:meth:`~jaxdc.core.env.Environment.check_param_values`: for the DCP and the DCG, risks finite in ``[0, 1]``
+    with base risk 0, energies > 0 or ``inf``, ``max_steps`` >= 1, ...), so params edited with ``.replace(...)``
+    (a NaN risk map, an infinite risk) are refused with a ``ValueError`` naming the field instead of playing
+    silently."""
+    return env.check_param_values(env.check_params(params))
 
 
 #: A vector adapter holds about this many copies of a batch's observations and states: the device state and

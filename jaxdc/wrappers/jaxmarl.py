@@ -60,9 +60,8 @@ class JaxMARLTeam:
         if not isinstance(env, DCGTeam):
             raise TypeError(f"env must be a DCGTeam, got {type(env).__name__}")
         self.env = env
-        from jaxdc.dcg.evaluate import check_param_values  # values too (energy > 0, max_steps >= 1, ...)
-
-        self.params = check_param_values(env.check_params(env.default_params if params is None else params))
+        # values too (energy > 0, max_steps >= 1, ...): Environment.check_param_values
+        self.params = env.check_param_values(env.check_params(env.default_params if params is None else params))
         self.reward = check_choice("reward", reward, REWARDS)
         self.world_state = check_bool("world_state", world_state)
         self.num_agents = env.collectors

@@ -9,7 +9,8 @@ import jax.numpy as jnp
 import pytest
 
 from jaxdc.dcp.env import DCP
-from jaxdc.dcp.evaluate import check_param_values, evaluate_heuristic, evaluate_learned, evaluate_optimal
+from jaxdc.dcp.evaluate import evaluate_heuristic, evaluate_learned, evaluate_optimal
+from jaxdc.dcp.param_values import check_param_values
 
 ENV = DCP(grid_size=4)
 PB = ENV.make_params(risk="high")

@@ -1,6 +1,6 @@
 """Parameters edited with ``.replace(...)`` bypass ``make_params``' checks: every non-jitted entry point that takes
 params checks their VALUES once (issue 31): the gymnasium and JaxMARL adapters, the DCG evaluators
-(:func:`jaxdc.dcg.evaluate.check_param_values`; the SB3 adapter in test_sb3_hostile.py, the DCP evaluators in
+(:func:`jaxdc.dcg.param_values.check_param_values`; the SB3 adapter in test_sb3_hostile.py, the DCP evaluators in
 tests/dcp/test_evaluate_hostile.py). A refusal names ``params.<field>``, the value and the allowed range."""
 
 from __future__ import annotations
@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from jaxdc.dcg.env import DCG
-from jaxdc.dcg.evaluate import check_param_values, evaluate_network, evaluate_policy
+from jaxdc.dcg.evaluate import evaluate_network, evaluate_policy
+from jaxdc.dcg.param_values import check_param_values
 from jaxdc.dcp.env import DCP
 from jaxdc.wrappers.gymnasium import JaxToGymnasium, JaxVectorEnv
 
@@ -39,7 +40,7 @@ def test_the_gymnasium_adapters_refuse_bad_dcp_values(bad, match):
 
 def test_good_params_pass_and_traced_ones_are_not_checked():
     from jaxdc.dcp import instances
-    from jaxdc.dcp.evaluate import check_param_values as check_dcp
+    from jaxdc.dcp.param_values import check_param_values as check_dcp
 
     JaxToGymnasium(DCP4, params=PB.replace(init_energy=jnp.float32(jnp.inf), max_energy=jnp.float32(jnp.inf)))
     maps = np.stack([np.asarray(PB.risk)] * 2)

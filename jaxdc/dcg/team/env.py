@@ -45,6 +45,7 @@ from jaxdc.core.env import Environment, Transition
 from jaxdc.core.scene import Scene
 from jaxdc.core.validate import check_bool, check_choice, check_int
 from jaxdc.dcg.env import DCG, end_of_step
+from jaxdc.dcg.param_values import check_param_values
 from jaxdc.dcg.team import picture
 from jaxdc.dcg.team.observation import TeamObservation
 from jaxdc.dcg.team.state import FOG_TARGETS, MAX_COLLECTORS, MAX_OPPONENTS, TARGET_TIES, TeamState, collector_view
@@ -105,6 +106,11 @@ class DCGTeam(TeamObservation, Environment[TeamState, EnvParams]):
     def __repr__(self) -> str:
         return (f"DCGTeam(collectors={self.collectors}, opponents={self.opponents}, teammates={self.teammates}, "
                 f"fog_target={self.fog_target!r}, target_tie={self.target_tie!r}, game={self.single!r})")
+
+    def check_param_values(self, params: EnvParams) -> EnvParams:
+        """``params`` if their values are ones :meth:`make_params` accepts (the one-collector game's
+        :func:`jaxdc.dcg.param_values.check_param_values`)."""
+        return check_param_values(params)
 
     def grid_shapes(self) -> tuple[dict[str, tuple[int, ...]], dict[str, tuple[int, ...]]]:
         """The state's shaped fields: the DCG's grid fields, the collectors' ``[k]`` and the opponents' ``[m]``."""
