@@ -21,8 +21,8 @@ MIN_RANGE_ENERGY = 1.0
 
 
 def check_param_values(params: EnvParams, name: str = "params") -> EnvParams:
-    """``params`` if their VALUES are those :meth:`jaxdc.dcg.env.DCG.make_params` accepts: ``max_energy`` > 0 (finite or ``inf``),
-    ``max_steps`` an int in ``[1, 2**31 - 1]``, ``chase_tie`` an index into
+    """``params`` if their VALUES are those :meth:`jaxdc.dcg.env.DCG.make_params` accepts: ``max_energy`` > 0
+    (finite or ``inf``), ``max_steps`` an int in ``[1, 2**31 - 1]``, ``chase_tie`` an index into
     :data:`~jaxdc.dcg.opponents.CHASE_TIES`, and, with a drawn budget, ``energy_range`` whole numbers
     ``MIN_RANGE_ENERGY <= low <= high`` and ``energy_tilt`` in range. Else a ``TypeError``/``ValueError`` naming
     ``name.<field>``, the value and the allowed range. Traced parameters (inside ``jit``/``vmap``) are returned

@@ -64,10 +64,11 @@ def check_energy_range(energy_range: Any) -> tuple[float, float]:
 
 def check_param_values(params: EnvParams, name: str = "params") -> EnvParams:
     """``params`` if their VALUES are those :meth:`jaxdc.dcp.env.DCP.make_params` (and
-    :func:`jaxdc.dcp.instances.instance_params` for per-episode instances) accept: the risk map finite in ``[0, 1]`` with base risk 0, the energies
-    ``0 < initial <= maximum`` (each finite or ``inf``), ``max_steps`` an int in ``[1, 2**31 - 1]``, and, with
-    per-episode instances, each map as :func:`check_maps` accepts, the energy range, tilt and initial fraction in
-    range. Else a ``TypeError``/``ValueError`` naming ``name.<field>``, the value and the allowed range.
+    :func:`jaxdc.dcp.instances.instance_params` for per-episode instances) accept: the risk map finite in
+    ``[0, 1]`` with base risk 0, the energies ``0 < initial <= maximum`` (each finite or ``inf``), ``max_steps`` an
+    int in ``[1, 2**31 - 1]``, and, with per-episode instances, each map as :func:`check_maps` accepts, the energy
+    range, tilt and initial fraction in range. Else a ``TypeError``/``ValueError`` naming ``name.<field>``, the
+    value and the allowed range.
 
     The shapes are :meth:`~jaxdc.core.env.Environment.check_params`' business; traced parameters (inside
     ``jit``/``vmap``) are returned unchecked (their values are not known there)."""
