@@ -26,6 +26,7 @@ import sys
 
 from jaxdc.io import atomic_write, check_output_path
 from jaxdc.report import build_page
+from jaxdc.report.page import notes_text
 
 PROG = "python -m eval.report"
 #: The notes appended when ``--notes`` is not given (only if the file exists).
@@ -64,17 +65,7 @@ def _notes(value: str | None, default: str, flag: str) -> str | None:
         return default if os.path.isfile(default) else None
     if value.lower() == "none":
         return None
-    if os.path.isdir(value):
-        raise ValueError(f"{flag} {value!r} is a folder, not a notes file (pass {flag} none for no notes)")
-    if not os.path.isfile(value):
-        raise ValueError(f"{flag} {value!r}: no such file (pass {flag} none for no notes)")
-    try:
-        with open(value, encoding="utf-8") as f:
-            f.read()
-    except UnicodeDecodeError as e:
-        raise ValueError(f"{flag} {value!r}: not a UTF-8 text file (byte {e.start} cannot be decoded)") from None
-    except OSError as e:
-        raise ValueError(f"{flag} {value!r}: cannot read it ({e.strerror or e})") from None
+    notes_text(flag, value, f"pass {flag} none for no notes")  # checked now, before the results are read
     return value
 
 

@@ -7,7 +7,7 @@ import os
 from jaxdc.report.copied import DCG_TITLE, copied_sections
 from jaxdc.report.dcp_tables import dcp_table
 from jaxdc.report.scorecard import scorecard
-from jaxdc.report.stored import dcp_table_file, reading, table_files
+from jaxdc.report.stored import dcp_table_file, read_text, reading, table_files
 
 HEADER = """# Results: the thesis against jaxdc
 
@@ -28,15 +28,15 @@ def build_page(results_dir: str, notes_path: str | None, out_dir: str = "docs",
                dcg_notes_path: str | None = None) -> str:
     """The page: header, the scorecard (:mod:`jaxdc.report.scorecard`), the DCP tables of ``results_dir/dcp``, the
     notes at ``notes_path`` (``None``: none), the copied sections, the DCG one ending with the notes at
-    ``dcg_notes_path``; links are relative to ``out_dir``. ``FileNotFoundError`` when there is no DCP table or the
-    notes file is missing; ``ValueError`` naming the file (and the key) when a table file is damaged, and naming
-    the flag when a notes file is a folder or not UTF-8 text."""
+    ``dcg_notes_path``; links are relative to ``out_dir``. ``FileNotFoundError`` when there is no DCP table;
+    ``ValueError`` naming the file (and the key) when a table file is damaged, and naming the flag when a notes
+    file is missing, a folder or not UTF-8 text (:func:`notes_text`)."""
     files = table_files(results_dir)
     if not files:
         raise FileNotFoundError(
             f"no DCP tables in {results_dir}/dcp: run e.g. `python -m eval.dcp --table 4.3` first"
         )
-    notes = {flag: _notes_text(flag, path) for flag, path in (("--notes", notes_path),
+    notes = {flag: notes_text(flag, path) for flag, path in (("--notes", notes_path),
                                                                ("--dcg-notes", dcg_notes_path))}
     parts = [HEADER, scorecard(results_dir), "## DCP (chapter 4): Tables 4.1 and 4.3-4.10, navigators and learners", ""]
     for path in files:
@@ -50,19 +50,14 @@ def build_page(results_dir: str, notes_path: str | None, out_dir: str = "docs",
     return "\n".join(parts)
 
 
-def _notes_text(flag: str, path: str | None) -> str | None:
-    """The text of the notes file ``path`` given as ``flag`` (``None``: none); ``FileNotFoundError`` when there is
-    no such file, ``ValueError`` naming the flag when it is a folder or not UTF-8 text."""
+def notes_text(flag: str, path: str | None, hint: str = "") -> str | None:
+    """The text of the notes file ``path`` given as ``flag`` (``None``: none); a ``ValueError`` naming the flag (and
+    ``hint``) when it is a folder, missing, or not UTF-8 text."""
     if not path:
         return None
+    tail = f" ({hint})" if hint else ""
     if os.path.isdir(path):
-        raise ValueError(f"{flag} {path!r} is a folder, not a notes file")
-    if not os.path.exists(path):
-        raise FileNotFoundError(f"{flag} {path!r}: no such file")
-    try:
-        with open(path, encoding="utf-8") as f:
-            return f.read()
-    except UnicodeDecodeError as e:
-        raise ValueError(f"{flag} {path!r}: not a UTF-8 text file (byte {e.start} cannot be decoded)") from None
-    except OSError as e:
-        raise ValueError(f"{flag} {path!r}: cannot read it ({e.strerror or e})") from None
+        raise ValueError(f"{flag} {path!r} is a folder, not a notes file{tail}")
+    if not os.path.isfile(path):
+        raise ValueError(f"{flag} {path!r}: no such file{tail}")
+    return read_text(path, f"{flag} {path!r}", hint)

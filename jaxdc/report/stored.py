@@ -35,15 +35,17 @@ def table_files(results_dir: str) -> list[str]:
     return [path for _, path in sorted(found)]
 
 
-def read_text(path: str) -> str:
-    """The UTF-8 text of a stored markdown file; ``ValueError`` naming the file if it cannot be read as text."""
+def read_text(path: str, name: str | None = None, hint: str = "rerun the command that wrote it") -> str:
+    """The UTF-8 text of the file ``path``; a ``ValueError`` naming it (as ``name``, default the path) and ``hint``
+    when it cannot be read as text."""
+    name, tail = name or path, f"; {hint}" if hint else ""
     try:
         with open(path, encoding="utf-8") as f:
             return f.read()
     except UnicodeDecodeError as e:
-        raise ValueError(f"{path}: not UTF-8 text (byte {e.start}); rerun the command that wrote it") from None
+        raise ValueError(f"{name}: not a UTF-8 text file (byte {e.start} cannot be decoded){tail}") from None
     except OSError as e:
-        raise ValueError(f"{path}: cannot read it: {e.strerror or e}") from None
+        raise ValueError(f"{name}: cannot read it ({e.strerror or e}){tail}") from None
 
 
 def fields(path: str, command: str) -> Fields:

@@ -193,5 +193,5 @@ def test_a_copied_markdown_file_that_is_not_text_is_named(tmp_path):
     res = _results_with_one_dcp_table(tmp_path)
     (res / "benchmarks").mkdir()
     (res / "benchmarks" / "env.md").write_bytes(b"\xff\xfe")
-    with pytest.raises(ValueError, match=r"benchmarks/env\.md: not UTF-8 text"):
+    with pytest.raises(ValueError, match=r"benchmarks/env\.md: not a UTF-8 text file"):
         build_page(str(res), None, str(tmp_path))

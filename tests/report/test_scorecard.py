@@ -173,5 +173,5 @@ def test_damaged_drp_results_are_refused_naming_the_file_and_key(tmp_path):
 def test_a_figure_heading_that_is_not_text_is_named(tmp_path):
     _figure(tmp_path, [("a (Fig. 5.6)", "yes")])
     (tmp_path / "dcg" / "figure_standard.md").write_bytes(b"\x80\x81 not text")
-    with pytest.raises(ValueError, match=r"figure_standard\.md: not UTF-8 text"):
+    with pytest.raises(ValueError, match=r"figure_standard\.md: not a UTF-8 text file"):
         scorecard(str(tmp_path))
