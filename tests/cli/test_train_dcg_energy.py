@@ -123,30 +123,21 @@ def test_the_masked_general_collector_records_its_recipe_and_plays_under_its_mas
     assert learned.metadata["algorithm"] == dataclasses.asdict(settings.config)
 
 
-def test_the_harder_tilted_collector_records_its_recipe_seed_and_start():
-    """omn_conn_general_tilt3: omn_conn_general_masked trained on with energy_tilt 3 under its mask, from the shipped
-    file; the preset fixes the seed the shipped file was trained with (train.ship's command uses it)."""
-    settings, _ = settle(cli, "dcg", ["--config", "omn_conn_general_tilt3"])
-    assert settings.init_from == "omn_conn_general_masked" and settings.mask == "reach_base_or_item"
-    assert settings.energy_tilt == 3.0 and settings.config.total_steps == 8_000_000 and settings.config.lr == 1e-4
-    learned = learned_lib.shipped("omn_conn_general_tilt3")
-    assert learned.mask == "reach_base_or_item" and learned.metadata["seed"] == 6
-    assert learned.metadata["init_sha256"] == digest(learned_lib.shipped("omn_conn_general_masked").params)
+@pytest.mark.parametrize("name, start, tilt, steps, seed", [
+    ("omn_conn_general_tilt3", "omn_conn_general_masked", 3.0, 8_000_000, 6),
+    ("omn_conn_general_tilt4", "omn_conn_general_tilt3", 4.0, 6_000_000, 7),
+])
+def test_the_tilted_collectors_record_their_recipe_seed_and_start(name, start, tilt, steps, seed):
+    """The harder tilts: a shipped collector trained on under its mask with a larger energy_tilt, from the shipped
+    file it names; the preset fixes the seed the shipped file was trained with (train.ship's command uses it)."""
+    settings, _ = settle(cli, "dcg", ["--config", name])
+    assert settings.init_from == start and settings.mask == "reach_base_or_item"
+    assert settings.energy_tilt == tilt and settings.config.total_steps == steps and settings.config.lr == 1e-4
+    learned = learned_lib.shipped(name)
+    assert learned.mask == "reach_base_or_item" and learned.metadata["seed"] == seed
+    assert learned.metadata["init_sha256"] == digest(learned_lib.shipped(start).params)
     assert learned.metadata["algorithm"] == dataclasses.asdict(settings.config)
-    assert "--seed 6" in " ".join(ship.train_command("omn_conn_general_tilt3", 0, 0, "runs"))
-
-
-def test_the_tilt4_collector_records_its_recipe_seed_and_start():
-    """omn_conn_general_tilt4: omn_conn_general_tilt3 trained on with energy_tilt 4 under its mask, from the shipped
-    file, with the seed of its preset."""
-    settings, _ = settle(cli, "dcg", ["--config", "omn_conn_general_tilt4"])
-    assert settings.init_from == "omn_conn_general_tilt3" and settings.mask == "reach_base_or_item"
-    assert settings.energy_tilt == 4.0 and settings.config.total_steps == 6_000_000 and settings.config.lr == 1e-4
-    learned = learned_lib.shipped("omn_conn_general_tilt4")
-    assert learned.mask == "reach_base_or_item" and learned.metadata["seed"] == 7
-    assert learned.metadata["init_sha256"] == digest(learned_lib.shipped("omn_conn_general_tilt3").params)
-    assert learned.metadata["algorithm"] == dataclasses.asdict(settings.config)
-    assert "--seed 7" in " ".join(ship.train_command("omn_conn_general_tilt4", 0, 0, "runs"))
+    assert f"--seed {seed}" in " ".join(ship.train_command(name, 0, 0, "runs"))
 
 
 @pytest.mark.parametrize("argv, match", [
